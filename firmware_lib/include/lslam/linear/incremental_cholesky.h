@@ -1,0 +1,210 @@
+#pragma once
+// Block Cholesky factor L of Lambda (= L L^T) kept up to date one update at a time (the L-SLAM
+// update of the seed, eqs. 9-13), in storage that is fixed when the object is built.
+//
+// What an update recomputes. Column k of L depends only on column k of Lambda and on the columns in
+// its row subtree (the columns j < k with L(k, j) != 0, all descendants of k in the elimination
+// tree). When Lambda changes in a set S of columns, the columns of L that change are exactly the
+// ancestors of S in the (new) elimination tree: the paths from S to the root. An update recomputes
+// those columns only, left-looking from Lambda, so nothing is ever downdated inside L. With the
+// newest variable last, an odometry step touches the last two columns: constant work.
+//
+// Copy on write. Recomputed columns are written to the free tail of the block pool, next to the
+// columns they replace; commit() switches the column table to them, rollback() forgets them. A
+// failed update (pool full, a non-positive pivot) therefore leaves the factor bit-for-bit as it
+// was. The replaced columns become garbage that compact() squeezes out.
+//
+// Storage of a column k: its first block is the *inverse* of the diagonal block, L(k,k)^-1, because
+// every later use (forward and back substitution) needs the inverse; then the blocks L(r, k) for
+// the rows r > k of its structure, rows ascending. The first of those rows is k's parent in the
+// elimination tree.
+#include <cstddef>
+#include <cstdint>
+
+#include "lslam/eigen.h"
+#include "lslam/linear/index.h"
+#include "lslam/linear/information_source.h"
+#include "lslam/status.h"
+
+namespace lslam {
+
+// The arrays an IncrementalCholesky works in, owned by whoever holds the memory (see
+// StaticCholeskyStorage). Sizes: pool arrays max_blocks; column arrays max_columns; the etree
+// child lists max_columns + 1 (the last entry is a virtual root above every tree of the forest).
+template <int D>
+struct CholeskyArrays {
+  using Block = Eigen::Matrix<double, D, D>;
+  using Vector = Eigen::Matrix<double, D, 1>;
+
+  Index max_columns = 0;
+  Index max_blocks = 0;
+  Index* rows = nullptr;
+  Block* blocks = nullptr;
+  Index* start = nullptr;
+  Index* count = nullptr;
+  Vector* d = nullptr;
+  std::uint8_t* needs_solve = nullptr;
+  Index* first_child = nullptr;
+  Index* next_sibling = nullptr;
+  Index* prev_sibling = nullptr;
+  Index* staged_start = nullptr;
+  Index* staged_count = nullptr;
+  Vector* staged_d = nullptr;
+  std::uint32_t* queued = nullptr;
+  std::uint32_t* mark = nullptr;
+  Index* slot = nullptr;
+  Index* heap = nullptr;
+  Index* affected = nullptr;
+  Index* child_head = nullptr;
+  Index* child_next = nullptr;
+  Index* row_list = nullptr;
+  Index* scratch = nullptr;
+};
+
+// What one update did, for diagnostics.
+struct FactorizationStats {
+  Index columns_recomputed = 0;     // |ancestors of the changed columns|
+  Index blocks_written = 0;         // blocks of those columns
+  std::int64_t block_products = 0;  // D x D multiply-adds of the left-looking sums
+};
+
+template <int D>
+class IncrementalCholesky {
+ public:
+  using Block = Eigen::Matrix<double, D, D>;
+  using Vector = Eigen::Matrix<double, D, 1>;
+
+  explicit IncrementalCholesky(const CholeskyArrays<D>& arrays);
+
+  Index columns() const { return n_; }
+  Index maxColumns() const { return a_.max_columns; }
+  Index liveBlocks() const { return live_blocks_; }
+  Index poolEnd() const { return pool_end_; }
+  Index poolCapacity() const { return a_.max_blocks; }
+
+  // --- one update: begin, mark changed columns, factorize, then commit or roll back ---
+  // Adds `new_columns` columns at the end. With full_refactor every column is recomputed from
+  // scratch (after a reordering: old columns are then ignored).
+  void beginUpdate(Index new_columns, bool full_refactor);
+  // Column `column` of Lambda (or of eta) changed in this update.
+  void markChanged(Index column);
+  // Recomputes every column on the etree paths from the changed ones to the root, and their part
+  // of d (L d = eta). variable_at[k] is the variable at column k, position_of its inverse.
+  [[nodiscard]] Status factorize(const InformationSource<D>& source, const Index* variable_at,
+                                 const Index* position_of);
+  void commit();
+  void rollback();
+  const FactorizationStats& lastStats() const { return stats_; }
+
+  // Moves the live columns to the front of the pool (no update may be in progress).
+  void compact();
+
+  // Solves L^T x = d for the variables' x = delta[variable_at[k]], from the root down. Partial
+  // (full == false): a subtree is entered only when its parent's x, or any x its column refers
+  // to, changed by more than `tolerance` (max-norm), or when it holds columns factorized since the
+  // last solve. Writes the visited columns to `visited` (capacity columns()); returns their count.
+  Index backSubstitute(Vector* delta, const Index* variable_at, double tolerance, bool full,
+                       Index* visited);
+
+  // Read access to a committed column: rows[0] == k, blocks[0] == L(k,k)^-1.
+  Index columnSize(Index k) const { return a_.count[k]; }
+  const Index* columnRows(Index k) const { return a_.rows + a_.start[k]; }
+  const Block* columnBlocks(Index k) const { return a_.blocks + a_.start[k]; }
+  Index parent(Index k) const { return a_.count[k] > 1 ? a_.rows[a_.start[k] + 1] : kNoIndex; }
+  const Vector& rhs(Index k) const { return a_.d[k]; }
+
+ private:
+  void queue(Index column);
+  Index popSmallest();
+  bool isAffected(Index k) const { return a_.queued[k] == stamp_; }
+  void stagedOrCommitted(Index k, const Index*& rows, const Block*& blocks, Index& size) const;
+  Index stagedParent(Index k) const;
+  [[nodiscard]] Status buildStructure(Index k, const InformationSource<D>& source,
+                                      const Index* variable_at, const Index* position_of);
+  [[nodiscard]] Status computeColumn(Index k, const InformationSource<D>& source,
+                                     const Index* variable_at, const Index* position_of);
+  std::uint32_t nextMark();
+  void linkChild(Index parent, Index child);
+  void unlinkChild(Index parent, Index child);
+  void rebuildChildLists();
+
+  CholeskyArrays<D> a_;
+  Index n_ = 0;
+  Index staged_columns_ = 0;
+  Index pool_end_ = 0;
+  Index pool_mark_ = 0;
+  Index live_blocks_ = 0;
+  Index heap_size_ = 0;
+  Index affected_count_ = 0;
+  std::uint32_t stamp_ = 0;
+  std::uint32_t mark_id_ = 0;
+  bool full_ = false;
+  bool in_update_ = false;
+  FactorizationStats stats_;
+};
+
+// Memory for an IncrementalCholesky, all of it inside the object: no allocation anywhere.
+template <int D, Index MaxColumns, Index MaxBlocks>
+class StaticCholeskyStorage {
+ public:
+  using Block = Eigen::Matrix<double, D, D>;
+  using Vector = Eigen::Matrix<double, D, 1>;
+  static_assert(MaxColumns > 0 && MaxBlocks >= MaxColumns, "capacities");
+
+  CholeskyArrays<D> arrays() {
+    CholeskyArrays<D> a;
+    a.max_columns = MaxColumns;
+    a.max_blocks = MaxBlocks;
+    a.rows = rows_;
+    a.blocks = blocks_;
+    a.start = start_;
+    a.count = count_;
+    a.d = d_;
+    a.needs_solve = needs_solve_;
+    a.first_child = first_child_;
+    a.next_sibling = next_sibling_;
+    a.prev_sibling = prev_sibling_;
+    a.staged_start = staged_start_;
+    a.staged_count = staged_count_;
+    a.staged_d = staged_d_;
+    a.queued = queued_;
+    a.mark = mark_;
+    a.slot = slot_;
+    a.heap = heap_;
+    a.affected = affected_;
+    a.child_head = child_head_;
+    a.child_next = child_next_;
+    a.row_list = row_list_;
+    a.scratch = scratch_;
+    return a;
+  }
+
+ private:
+  Block blocks_[MaxBlocks];
+  Index rows_[MaxBlocks];
+  Index start_[MaxColumns];
+  Index count_[MaxColumns];
+  Vector d_[MaxColumns];
+  std::uint8_t needs_solve_[MaxColumns];
+  Index first_child_[MaxColumns + 1];
+  Index next_sibling_[MaxColumns + 1];
+  Index prev_sibling_[MaxColumns + 1];
+  Index staged_start_[MaxColumns];
+  Index staged_count_[MaxColumns];
+  Vector staged_d_[MaxColumns];
+  std::uint32_t queued_[MaxColumns];
+  std::uint32_t mark_[MaxColumns];
+  Index slot_[MaxColumns];
+  Index heap_[MaxColumns];
+  Index affected_[MaxColumns];
+  Index child_head_[MaxColumns];
+  Index child_next_[MaxColumns];
+  Index row_list_[MaxColumns];
+  Index scratch_[MaxColumns];
+};
+
+extern template class IncrementalCholesky<2>;
+extern template class IncrementalCholesky<3>;
+extern template class IncrementalCholesky<6>;
+
+}  // namespace lslam

@@ -1,0 +1,456 @@
+#include "lslam/linear/incremental_cholesky.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+namespace lslam {
+namespace {
+
+// Adds the positions of a variable's neighbours that come after column k to a row list, once each.
+class RowsAfterCollector final : public NeighbourVisitor {
+ public:
+  RowsAfterCollector(const Index* position_of, Index k, std::uint32_t* mark, std::uint32_t id,
+                     Index* out)
+      : position_of_(position_of), k_(k), mark_(mark), id_(id), out_(out) {}
+  void visit(Index variable) override {
+    const Index r = position_of_[variable];
+    if (r > k_ && mark_[r] != id_) {
+      mark_[r] = id_;
+      out_[count_++] = r;
+    }
+  }
+  Index count() const { return count_; }
+
+ private:
+  const Index* position_of_;
+  Index k_;
+  std::uint32_t* mark_;
+  std::uint32_t id_;
+  Index* out_;
+  Index count_ = 0;
+};
+
+// Lower Cholesky factor of a small SPD block, inverted: returns false on a pivot that is not
+// positive and finite (never clamped: a bad pivot means the problem is not positive definite).
+template <int D>
+bool invertedCholesky(const Eigen::Matrix<double, D, D>& a, Eigen::Matrix<double, D, D>& l_inv) {
+  Eigen::Matrix<double, D, D> l = Eigen::Matrix<double, D, D>::Zero();
+  for (int j = 0; j < D; ++j) {
+    double pivot = a(j, j);
+    for (int p = 0; p < j; ++p) pivot -= l(j, p) * l(j, p);
+    if (!(pivot > 0.0) || !std::isfinite(pivot)) return false;
+    const double ljj = std::sqrt(pivot);
+    l(j, j) = ljj;
+    for (int i = j + 1; i < D; ++i) {
+      double v = a(i, j);
+      for (int p = 0; p < j; ++p) v -= l(i, p) * l(j, p);
+      l(i, j) = v / ljj;
+    }
+  }
+  // Forward substitution on the identity, column by column.
+  l_inv.setZero();
+  for (int c = 0; c < D; ++c) {
+    for (int i = c; i < D; ++i) {
+      double v = (i == c) ? 1.0 : 0.0;
+      for (int p = c; p < i; ++p) v -= l(i, p) * l_inv(p, c);
+      l_inv(i, c) = v / l(i, i);
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+template <int D>
+IncrementalCholesky<D>::IncrementalCholesky(const CholeskyArrays<D>& arrays) : a_(arrays) {
+  LSLAM_ASSERT(a_.max_columns > 0 && a_.max_blocks > 0);
+  std::memset(a_.queued, 0, sizeof(std::uint32_t) * static_cast<std::size_t>(a_.max_columns));
+  std::memset(a_.mark, 0, sizeof(std::uint32_t) * static_cast<std::size_t>(a_.max_columns));
+  std::memset(a_.needs_solve, 0, static_cast<std::size_t>(a_.max_columns));
+  const Index root = a_.max_columns;
+  a_.first_child[root] = kNoIndex;
+  a_.next_sibling[root] = kNoIndex;
+  a_.prev_sibling[root] = kNoIndex;
+}
+
+template <int D>
+void IncrementalCholesky<D>::beginUpdate(Index new_columns, bool full_refactor) {
+  LSLAM_ASSERT(!in_update_);
+  LSLAM_ASSERT(new_columns >= 0 && n_ + new_columns <= a_.max_columns);
+  in_update_ = true;
+  if (++stamp_ == 0) {  // wrapped: forget every old stamp so none is mistaken for a current one
+    std::memset(a_.queued, 0, sizeof(std::uint32_t) * static_cast<std::size_t>(a_.max_columns));
+    stamp_ = 1;
+  }
+  staged_columns_ = n_ + new_columns;
+  pool_mark_ = pool_end_;
+  heap_size_ = 0;
+  affected_count_ = 0;
+  full_ = full_refactor;
+  stats_ = FactorizationStats{};
+  if (full_) {
+    for (Index k = 0; k < staged_columns_; ++k) queue(k);
+  } else {
+    for (Index k = n_; k < staged_columns_; ++k) queue(k);
+  }
+}
+
+template <int D>
+void IncrementalCholesky<D>::markChanged(Index column) {
+  LSLAM_ASSERT(in_update_ && column >= 0 && column < staged_columns_);
+  queue(column);
+}
+
+template <int D>
+void IncrementalCholesky<D>::queue(Index column) {
+  if (a_.queued[column] == stamp_) return;
+  a_.queued[column] = stamp_;
+  a_.child_head[column] = kNoIndex;
+  // Binary min-heap: the columns must be processed in ascending order, and a column's parent is
+  // only known once the column's structure is.
+  Index i = heap_size_++;
+  while (i > 0) {
+    const Index up = (i - 1) / 2;
+    if (a_.heap[up] <= column) break;
+    a_.heap[i] = a_.heap[up];
+    i = up;
+  }
+  a_.heap[i] = column;
+}
+
+template <int D>
+Index IncrementalCholesky<D>::popSmallest() {
+  const Index top = a_.heap[0];
+  const Index last = a_.heap[--heap_size_];
+  Index i = 0;
+  for (;;) {
+    Index child = 2 * i + 1;
+    if (child >= heap_size_) break;
+    if (child + 1 < heap_size_ && a_.heap[child + 1] < a_.heap[child]) ++child;
+    if (a_.heap[child] >= last) break;
+    a_.heap[i] = a_.heap[child];
+    i = child;
+  }
+  if (heap_size_ > 0) a_.heap[i] = last;
+  return top;
+}
+
+template <int D>
+std::uint32_t IncrementalCholesky<D>::nextMark() {
+  if (++mark_id_ == 0) {
+    std::memset(a_.mark, 0, sizeof(std::uint32_t) * static_cast<std::size_t>(a_.max_columns));
+    mark_id_ = 1;
+  }
+  return mark_id_;
+}
+
+template <int D>
+void IncrementalCholesky<D>::stagedOrCommitted(Index k, const Index*& rows, const Block*& blocks,
+                                               Index& size) const {
+  const Index s = isAffected(k) ? a_.staged_start[k] : a_.start[k];
+  size = isAffected(k) ? a_.staged_count[k] : a_.count[k];
+  rows = a_.rows + s;
+  blocks = a_.blocks + s;
+}
+
+template <int D>
+Index IncrementalCholesky<D>::stagedParent(Index k) const {
+  const Index* rows;
+  const Block* blocks;
+  Index size;
+  stagedOrCommitted(k, rows, blocks, size);
+  return size > 1 ? rows[1] : kNoIndex;
+}
+
+template <int D>
+Status IncrementalCholesky<D>::factorize(const InformationSource<D>& source,
+                                         const Index* variable_at, const Index* position_of) {
+  LSLAM_ASSERT(in_update_);
+  // Symbolic: the structure of every affected column, in ascending order. A column's parent is
+  // queued as soon as the column's structure is known, which grows the set to the root.
+  while (heap_size_ > 0) {
+    const Index k = popSmallest();
+    a_.affected[affected_count_++] = k;
+    const Status s = buildStructure(k, source, variable_at, position_of);
+    if (s != Status::Ok) return s;
+  }
+  // Numeric, left-looking, in the same order: every column a column needs is final by then.
+  for (Index i = 0; i < affected_count_; ++i) {
+    const Status s = computeColumn(a_.affected[i], source, variable_at, position_of);
+    if (s != Status::Ok) return s;
+  }
+  stats_.columns_recomputed = affected_count_;
+  stats_.blocks_written = pool_end_ - pool_mark_;
+  return Status::Ok;
+}
+
+template <int D>
+Status IncrementalCholesky<D>::buildStructure(Index k, const InformationSource<D>& source,
+                                              const Index* variable_at, const Index* position_of) {
+  const std::uint32_t id = nextMark();
+  Index* rows = a_.scratch;
+  // Structures only grow (factors are never removed), so the old structure stays a subset.
+  Index count = 0;
+  if (!full_ && k < n_) {
+    const Index* old_rows = a_.rows + a_.start[k];
+    for (Index i = 1; i < a_.count[k]; ++i) {
+      a_.mark[old_rows[i]] = id;
+      rows[count++] = old_rows[i];
+    }
+  }
+  RowsAfterCollector collector(position_of, k, a_.mark, id, rows + count);
+  source.visitNeighbours(variable_at[k], collector);
+  count += collector.count();
+  // Fill from the affected children: struct(k) contains struct(child) \ {k}. Unaffected
+  // children's contributions are already in the old structure.
+  for (Index c = a_.child_head[k]; c != kNoIndex; c = a_.child_next[c]) {
+    const Index* child_rows = a_.rows + a_.staged_start[c];
+    for (Index i = 2; i < a_.staged_count[c]; ++i) {  // [0] is c, [1] is k itself
+      const Index r = child_rows[i];
+      if (a_.mark[r] != id) {
+        a_.mark[r] = id;
+        rows[count++] = r;
+      }
+    }
+  }
+  std::sort(rows, rows + count);
+  if (pool_end_ + count + 1 > a_.max_blocks) return Status::CapacityExhausted;
+  a_.staged_start[k] = pool_end_;
+  a_.staged_count[k] = count + 1;
+  a_.rows[pool_end_] = k;
+  std::memcpy(a_.rows + pool_end_ + 1, rows, sizeof(Index) * static_cast<std::size_t>(count));
+  pool_end_ += count + 1;
+  if (count > 0) {
+    const Index parent = rows[0];
+    queue(parent);
+    a_.child_next[k] = a_.child_head[parent];
+    a_.child_head[parent] = k;
+  }
+  return Status::Ok;
+}
+
+namespace {
+
+// Collects the row subtree of column k (the columns j < k with L(k, j) != 0): from every j with
+// Lambda(k, j) != 0, walk up the elimination tree until a column already seen (or k itself).
+template <int D, typename ParentFn>
+class RowSubtreeCollector final : public NeighbourVisitor {
+ public:
+  RowSubtreeCollector(const Index* position_of, Index k, std::uint32_t* mark, std::uint32_t id,
+                      Index* out, ParentFn parent)
+      : position_of_(position_of), k_(k), mark_(mark), id_(id), out_(out), parent_(parent) {
+    mark_[k] = id;
+  }
+  void visit(Index variable) override {
+    // The walk always ends at k (k is in the structure of every column it passes); the
+    // kNoIndex test only guards against a corrupted tree.
+    for (Index j = position_of_[variable]; j != kNoIndex && j < k_ && mark_[j] != id_;
+         j = parent_(j)) {
+      mark_[j] = id_;
+      out_[count_++] = j;
+    }
+  }
+  Index count() const { return count_; }
+
+ private:
+  const Index* position_of_;
+  Index k_;
+  std::uint32_t* mark_;
+  std::uint32_t id_;
+  Index* out_;
+  ParentFn parent_;
+  Index count_ = 0;
+};
+
+}  // namespace
+
+template <int D>
+Status IncrementalCholesky<D>::computeColumn(Index k, const InformationSource<D>& source,
+                                             const Index* variable_at, const Index* position_of) {
+  const Index start = a_.staged_start[k];
+  const Index size = a_.staged_count[k];
+  const Index* rows = a_.rows + start;
+  Block* blocks = a_.blocks + start;
+  for (Index i = 0; i < size; ++i) {
+    a_.slot[rows[i]] = i;
+    blocks[i].setZero();
+  }
+  Vector eta = Vector::Zero();
+  ColumnAccumulator<D> acc(blocks, a_.slot, &eta);
+  source.assembleColumn(variable_at[k], position_of, acc);
+
+  const std::uint32_t id = nextMark();
+  auto parent_of = [this](Index j) { return stagedParent(j); };
+  RowSubtreeCollector<D, decltype(parent_of)> subtree(position_of, k, a_.mark, id, a_.row_list,
+                                                      parent_of);
+  source.visitNeighbours(variable_at[k], subtree);
+
+  // Left-looking: column k -= L(k:, j) L(k, j)^T for every j in the row subtree.
+  for (Index t = 0; t < subtree.count(); ++t) {
+    const Index j = a_.row_list[t];
+    const Index* jrows;
+    const Block* jblocks;
+    Index jsize;
+    stagedOrCommitted(j, jrows, jblocks, jsize);
+    const Index at = static_cast<Index>(std::lower_bound(jrows + 1, jrows + jsize, k) - jrows);
+    LSLAM_DEBUG_ASSERT(at < jsize && jrows[at] == k);
+    const Block l_kj_t = jblocks[at].transpose();
+    eta.noalias() -= jblocks[at] * (isAffected(j) ? a_.staged_d[j] : a_.d[j]);
+    blocks[0].noalias() -= jblocks[at] * l_kj_t;
+    for (Index i = at + 1; i < jsize; ++i) {
+      blocks[a_.slot[jrows[i]]].noalias() -= jblocks[i] * l_kj_t;
+    }
+    stats_.block_products += jsize - at;
+  }
+
+  Block l_inv;
+  if (!invertedCholesky<D>(blocks[0], l_inv)) return Status::NotPositiveDefinite;
+  blocks[0] = l_inv;
+  const Block l_inv_t = l_inv.transpose();
+  for (Index i = 1; i < size; ++i) blocks[i] = (blocks[i] * l_inv_t).eval();
+  a_.staged_d[k].noalias() = l_inv * eta;
+  return Status::Ok;
+}
+
+template <int D>
+void IncrementalCholesky<D>::commit() {
+  LSLAM_ASSERT(in_update_);
+  const Index old_n = n_;
+  // New columns start with no children; their children (earlier columns) link in below.
+  for (Index k = old_n; k < staged_columns_; ++k) a_.first_child[k] = kNoIndex;
+  for (Index i = 0; i < affected_count_; ++i) {
+    const Index k = a_.affected[i];
+    const bool had_column = !full_ && k < old_n;
+    const Index old_parent = had_column ? parent(k) : kNoIndex;
+    if (had_column) live_blocks_ -= a_.count[k];
+    a_.start[k] = a_.staged_start[k];
+    a_.count[k] = a_.staged_count[k];
+    live_blocks_ += a_.count[k];
+    a_.d[k] = a_.staged_d[k];
+    a_.needs_solve[k] = 1;
+    if (!full_) {
+      const Index new_parent = parent(k);
+      if (!had_column) {
+        linkChild(new_parent, k);
+      } else if (new_parent != old_parent) {
+        unlinkChild(old_parent, k);
+        linkChild(new_parent, k);
+      }
+    }
+  }
+  if (full_) {
+    live_blocks_ = pool_end_ - pool_mark_;
+    n_ = staged_columns_;
+    rebuildChildLists();
+  }
+  n_ = staged_columns_;
+  in_update_ = false;
+}
+
+template <int D>
+void IncrementalCholesky<D>::rollback() {
+  LSLAM_ASSERT(in_update_);
+  pool_end_ = pool_mark_;
+  staged_columns_ = n_;
+  affected_count_ = 0;
+  in_update_ = false;
+}
+
+template <int D>
+void IncrementalCholesky<D>::linkChild(Index parent, Index child) {
+  const Index p = parent == kNoIndex ? a_.max_columns : parent;
+  const Index head = a_.first_child[p];
+  a_.next_sibling[child] = head;
+  a_.prev_sibling[child] = kNoIndex;
+  if (head != kNoIndex) a_.prev_sibling[head] = child;
+  a_.first_child[p] = child;
+}
+
+template <int D>
+void IncrementalCholesky<D>::unlinkChild(Index parent, Index child) {
+  const Index p = parent == kNoIndex ? a_.max_columns : parent;
+  const Index prev = a_.prev_sibling[child];
+  const Index next = a_.next_sibling[child];
+  if (prev != kNoIndex) {
+    a_.next_sibling[prev] = next;
+  } else {
+    a_.first_child[p] = next;
+  }
+  if (next != kNoIndex) a_.prev_sibling[next] = prev;
+}
+
+template <int D>
+void IncrementalCholesky<D>::rebuildChildLists() {
+  a_.first_child[a_.max_columns] = kNoIndex;
+  for (Index k = 0; k < n_; ++k) a_.first_child[k] = kNoIndex;
+  // Descending, so that every child list ends up in ascending order.
+  for (Index k = n_ - 1; k >= 0; --k) linkChild(parent(k), k);
+}
+
+template <int D>
+void IncrementalCholesky<D>::compact() {
+  LSLAM_ASSERT(!in_update_);
+  // Move columns in the order they sit in the pool, so every move goes towards the front and
+  // never over a column not yet moved.
+  Index* order = a_.scratch;
+  for (Index k = 0; k < n_; ++k) order[k] = k;
+  std::sort(order, order + n_, [this](Index x, Index y) { return a_.start[x] < a_.start[y]; });
+  Index write = 0;
+  for (Index i = 0; i < n_; ++i) {
+    const Index k = order[i];
+    const Index from = a_.start[k];
+    const Index size = a_.count[k];
+    if (from != write) {
+      std::memmove(a_.rows + write, a_.rows + from, sizeof(Index) * static_cast<std::size_t>(size));
+      for (Index b = 0; b < size; ++b) a_.blocks[write + b] = a_.blocks[from + b];
+    }
+    a_.start[k] = write;
+    write += size;
+  }
+  pool_end_ = write;
+  LSLAM_ASSERT(pool_end_ == live_blocks_);
+}
+
+template <int D>
+Index IncrementalCholesky<D>::backSubstitute(Vector* delta, const Index* variable_at,
+                                             double tolerance, bool full, Index* visited) {
+  LSLAM_ASSERT(!in_update_);
+  const std::uint32_t changed = nextMark();
+  Index* stack = a_.heap;
+  Index top = 0;
+  Index solved = 0;
+  for (Index c = a_.first_child[a_.max_columns]; c != kNoIndex; c = a_.next_sibling[c]) {
+    stack[top++] = c;
+  }
+  while (top > 0) {
+    const Index k = stack[--top];
+    const Index* rows = columnRows(k);
+    const Block* blocks = columnBlocks(k);
+    const Index size = a_.count[k];
+    Vector x = a_.d[k];
+    bool depends_on_change = false;
+    for (Index i = 1; i < size; ++i) {
+      x.noalias() -= blocks[i].transpose() * delta[variable_at[rows[i]]];
+      depends_on_change = depends_on_change || a_.mark[rows[i]] == changed;
+    }
+    Vector& out = delta[variable_at[k]];
+    const Vector updated = blocks[0].transpose() * x;
+    const bool moved = (updated - out).cwiseAbs().maxCoeff() > tolerance;
+    out = updated;
+    a_.needs_solve[k] = 0;
+    visited[solved++] = k;
+    if (moved) a_.mark[k] = changed;
+    const bool descend = full || moved || depends_on_change;
+    for (Index c = a_.first_child[k]; c != kNoIndex; c = a_.next_sibling[c]) {
+      if (descend || a_.needs_solve[c] != 0) stack[top++] = c;
+    }
+  }
+  return solved;
+}
+
+template class IncrementalCholesky<2>;
+template class IncrementalCholesky<3>;
+template class IncrementalCholesky<6>;
+
+}  // namespace lslam

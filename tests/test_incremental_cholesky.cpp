@@ -1,0 +1,283 @@
+// The incremental block Cholesky against Eigen's dense LLT of the same matrix, over random SPD
+// growth sequences (fixed seeds): every committed column, and d, must match after every update.
+#include <doctest/doctest.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <memory>
+#include <random>
+#include <set>
+#include <vector>
+
+#include "lslam/linear/incremental_cholesky.h"
+
+namespace {
+
+using lslam::Index;
+using Block = Eigen::Matrix3d;
+
+// A symmetric block matrix held densely, with its block pattern, as the factorization's source.
+class DenseSource final : public lslam::InformationSource<3> {
+ public:
+  void addVariable() {
+    const Index n = size();
+    Eigen::MatrixXd grown = Eigen::MatrixXd::Zero(3 * (n + 1), 3 * (n + 1));
+    grown.topLeftCorner(3 * n, 3 * n) = lambda;
+    lambda = grown;
+    Eigen::VectorXd eta_grown = Eigen::VectorXd::Zero(3 * (n + 1));
+    eta_grown.head(3 * n) = eta;
+    eta = eta_grown;
+    neighbours.emplace_back();
+  }
+  // Adds J^T J for a random 3x6 J on variables (a, b): positive semidefinite, like a factor.
+  void addFactor(Index a, Index b, std::mt19937& rng) {
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    Eigen::Matrix<double, 3, 6> j;
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 6; ++c) j(r, c) = u(rng) + (c % 3 == r ? 2.0 : 0.0);
+    const Eigen::Matrix<double, 6, 6> h = j.transpose() * j;
+    const Index idx[2] = {a, b};
+    for (int p = 0; p < 2; ++p)
+      for (int q = 0; q < 2; ++q)
+        lambda.block<3, 3>(3 * idx[p], 3 * idx[q]) += h.block<3, 3>(3 * p, 3 * q);
+    Eigen::Vector3d e(u(rng), u(rng), u(rng));
+    eta.segment<3>(3 * a) += j.leftCols<3>().transpose() * e;
+    eta.segment<3>(3 * b) += j.rightCols<3>().transpose() * e;
+    neighbours[a].insert(b);
+    neighbours[b].insert(a);
+  }
+  void addPrior(Index a) { lambda.block<3, 3>(3 * a, 3 * a) += Block::Identity() * 4.0; }
+  Index size() const { return static_cast<Index>(neighbours.size()); }
+
+  void visitNeighbours(Index v, lslam::NeighbourVisitor& visitor) const override {
+    for (Index u : neighbours[v]) visitor.visit(u);
+  }
+  void assembleColumn(Index v, const Index* position,
+                      lslam::ColumnAccumulator<3>& acc) const override {
+    acc.addDiagonal(lambda.block<3, 3>(3 * v, 3 * v));
+    acc.addEta(eta.segment<3>(3 * v));
+    for (Index u : neighbours[v])
+      if (position[u] > position[v]) acc.addBelow(position[u], lambda.block<3, 3>(3 * u, 3 * v));
+  }
+
+  Eigen::MatrixXd lambda;
+  Eigen::VectorXd eta;
+  std::vector<std::set<Index>> neighbours;
+};
+
+constexpr Index kMaxColumns = 80;
+using Storage = lslam::StaticCholeskyStorage<3, kMaxColumns, 20000>;
+
+// The factor as a dense lower-triangular matrix, in column (position) order.
+Eigen::MatrixXd denseFactor(const lslam::IncrementalCholesky<3>& chol) {
+  const Index n = chol.columns();
+  Eigen::MatrixXd l = Eigen::MatrixXd::Zero(3 * n, 3 * n);
+  for (Index k = 0; k < n; ++k) {
+    const Index* rows = chol.columnRows(k);
+    const Block* blocks = chol.columnBlocks(k);
+    REQUIRE(rows[0] == k);
+    l.block<3, 3>(3 * k, 3 * k) = blocks[0].inverse();
+    for (Index i = 1; i < chol.columnSize(k); ++i) {
+      REQUIRE(rows[i] > rows[i - 1]);
+      l.block<3, 3>(3 * rows[i], 3 * k) = blocks[i];
+    }
+  }
+  return l;
+}
+
+Eigen::MatrixXd permuted(const DenseSource& s, const std::vector<Index>& variable_at) {
+  const Index n = s.size();
+  Eigen::MatrixXd p(3 * n, 3 * n);
+  for (Index r = 0; r < n; ++r)
+    for (Index c = 0; c < n; ++c)
+      p.block<3, 3>(3 * r, 3 * c) = s.lambda.block<3, 3>(3 * variable_at[r], 3 * variable_at[c]);
+  return p;
+}
+
+void checkAgainstDense(const lslam::IncrementalCholesky<3>& chol, const DenseSource& s,
+                       const std::vector<Index>& variable_at) {
+  const Eigen::MatrixXd a = permuted(s, variable_at);
+  Eigen::LLT<Eigen::MatrixXd> llt(a);
+  REQUIRE(llt.info() == Eigen::Success);
+  const Eigen::MatrixXd expected = llt.matrixL();
+  const Eigen::MatrixXd actual = denseFactor(chol);
+  const double scale = expected.cwiseAbs().maxCoeff();
+  CHECK((actual - expected).cwiseAbs().maxCoeff() <= 1e-10 * scale);
+  // d solves L d = eta (permuted).
+  Eigen::VectorXd eta(3 * s.size());
+  for (Index k = 0; k < s.size(); ++k) eta.segment<3>(3 * k) = s.eta.segment<3>(3 * variable_at[k]);
+  const Eigen::VectorXd d = expected.triangularView<Eigen::Lower>().solve(eta);
+  for (Index k = 0; k < s.size(); ++k) {
+    CHECK((chol.rhs(k) - d.segment<3>(3 * k)).cwiseAbs().maxCoeff() <=
+          1e-9 * (1.0 + d.cwiseAbs().maxCoeff()));
+  }
+}
+
+struct Harness {
+  Storage storage;
+  lslam::IncrementalCholesky<3> chol{storage.arrays()};
+  DenseSource source;
+  std::vector<Index> variable_at, position_of;
+
+  lslam::Status update(Index new_vars, const std::vector<std::pair<Index, Index>>& touched) {
+    chol.beginUpdate(new_vars, false);
+    for (auto [a, b] : touched) {
+      chol.markChanged(position_of[a]);
+      chol.markChanged(position_of[b]);
+    }
+    const lslam::Status s = chol.factorize(source, variable_at.data(), position_of.data());
+    if (s == lslam::Status::Ok) {
+      chol.commit();
+    } else {
+      chol.rollback();
+    }
+    return s;
+  }
+};
+
+}  // namespace
+
+TEST_CASE("incremental block Cholesky equals dense LLT over random growth sequences") {
+  for (unsigned seed = 1; seed <= 40; ++seed) {
+    CAPTURE(seed);
+    std::mt19937 rng(seed);
+    auto h = std::make_unique<Harness>();
+    std::uniform_int_distribution<int> coin(0, 3);
+    for (Index step = 0; step < 60; ++step) {
+      const Index v = h->source.size();
+      h->source.addVariable();
+      h->variable_at.push_back(v);
+      h->position_of.push_back(v);
+      std::vector<std::pair<Index, Index>> touched;
+      if (v == 0) {
+        h->source.addPrior(0);
+        touched.push_back({0, 0});
+      } else {
+        h->source.addFactor(v - 1, v, rng);  // odometry
+        touched.push_back({v - 1, v});
+        // loop closures to random older variables, and re-weighted existing pairs (as a
+        // relinearization changes them)
+        const int loops = coin(rng) == 0 ? 1 + coin(rng) : 0;
+        for (int l = 0; l < loops; ++l) {
+          const Index old = std::uniform_int_distribution<Index>(0, v - 1)(rng);
+          h->source.addFactor(old, v, rng);
+          touched.push_back({old, v});
+        }
+        if (coin(rng) == 0 && v > 2) {
+          const Index a = std::uniform_int_distribution<Index>(1, v - 1)(rng);
+          h->source.addFactor(a - 1, a, rng);
+          touched.push_back({a - 1, a});
+        }
+      }
+      REQUIRE(h->update(1, touched) == lslam::Status::Ok);
+      checkAgainstDense(h->chol, h->source, h->variable_at);
+    }
+  }
+}
+
+TEST_CASE("full refactorization under a new ordering equals dense LLT of the permuted matrix") {
+  for (unsigned seed = 100; seed < 110; ++seed) {
+    CAPTURE(seed);
+    std::mt19937 rng(seed);
+    auto h = std::make_unique<Harness>();
+    for (Index v = 0; v < 50; ++v) {
+      h->source.addVariable();
+      h->variable_at.push_back(v);
+      h->position_of.push_back(v);
+      if (v == 0) {
+        h->source.addPrior(0);
+      } else {
+        h->source.addFactor(v - 1, v, rng);
+      }
+      REQUIRE(h->update(1, {{v == 0 ? 0 : v - 1, v}}) == lslam::Status::Ok);
+      if (v % 7 == 0 && v > 0) {  // a loop closure as its own update
+        const Index old = std::uniform_int_distribution<Index>(0, v - 1)(rng);
+        h->source.addFactor(old, v, rng);
+        REQUIRE(h->update(0, {{old, v}}) == lslam::Status::Ok);
+      }
+    }
+    std::shuffle(h->variable_at.begin(), h->variable_at.end(), rng);
+    for (Index k = 0; k < 50; ++k) h->position_of[h->variable_at[k]] = k;
+    h->chol.beginUpdate(0, true);
+    REQUIRE(h->chol.factorize(h->source, h->variable_at.data(), h->position_of.data()) ==
+            lslam::Status::Ok);
+    h->chol.commit();
+    checkAgainstDense(h->chol, h->source, h->variable_at);
+    // Compaction keeps every value.
+    const Eigen::MatrixXd before = denseFactor(h->chol);
+    h->chol.compact();
+    CHECK(h->chol.poolEnd() == h->chol.liveBlocks());
+    CHECK((denseFactor(h->chol) - before).cwiseAbs().maxCoeff() == 0.0);
+    // And incremental updates go on from the new ordering.
+    for (Index v = 50; v < 70; ++v) {
+      h->source.addVariable();
+      h->variable_at.push_back(v);
+      h->position_of.push_back(v);
+      h->source.addFactor(v - 1, v, rng);
+      const Index old = std::uniform_int_distribution<Index>(0, v - 1)(rng);
+      h->source.addFactor(old, v, rng);
+      REQUIRE(h->update(1, {{v - 1, v}, {old, v}}) == lslam::Status::Ok);
+      checkAgainstDense(h->chol, h->source, h->variable_at);
+    }
+  }
+}
+
+TEST_CASE(
+    "back-substitution: full solve equals the dense solution; partial stays within tolerance") {
+  std::mt19937 rng(7);
+  auto h = std::make_unique<Harness>();
+  std::vector<Eigen::Vector3d> delta(kMaxColumns, Eigen::Vector3d::Zero());
+  std::vector<Index> visited(kMaxColumns);
+  for (Index v = 0; v < 70; ++v) {
+    h->source.addVariable();
+    h->variable_at.push_back(v);
+    h->position_of.push_back(v);
+    std::vector<std::pair<Index, Index>> touched;
+    if (v == 0) {
+      h->source.addPrior(0);
+      touched.push_back({0, 0});
+    } else {
+      h->source.addFactor(v - 1, v, rng);
+      touched.push_back({v - 1, v});
+      if (v % 5 == 0) {
+        const Index old = std::uniform_int_distribution<Index>(0, v - 1)(rng);
+        h->source.addFactor(old, v, rng);
+        touched.push_back({old, v});
+      }
+    }
+    REQUIRE(h->update(1, touched) == lslam::Status::Ok);
+    const bool full = v % 2 == 0;
+    h->chol.backSubstitute(delta.data(), h->variable_at.data(), full ? 0.0 : 1e-9, full,
+                           visited.data());
+    const Eigen::VectorXd x = h->source.lambda.llt().solve(h->source.eta);
+    for (Index k = 0; k <= v; ++k) {
+      CHECK((delta[k] - x.segment<3>(3 * k)).cwiseAbs().maxCoeff() <=
+            1e-8 * (1.0 + x.cwiseAbs().maxCoeff()));
+    }
+  }
+}
+
+TEST_CASE("a non-positive pivot is reported and the factor is left exactly as it was") {
+  std::mt19937 rng(3);
+  auto h = std::make_unique<Harness>();
+  for (Index v = 0; v < 30; ++v) {
+    h->source.addVariable();
+    h->variable_at.push_back(v);
+    h->position_of.push_back(v);
+    if (v == 0)
+      h->source.addPrior(0);
+    else
+      h->source.addFactor(v - 1, v, rng);
+    REQUIRE(h->update(1, {{v == 0 ? 0 : v - 1, v}}) == lslam::Status::Ok);
+  }
+  const Eigen::MatrixXd before = denseFactor(h->chol);
+  const Index live = h->chol.liveBlocks();
+  const Index pool_end = h->chol.poolEnd();
+  // Make Lambda indefinite in an old column: the update along its path must fail.
+  h->source.lambda.block<3, 3>(3 * 10, 3 * 10) -= Block::Identity() * 1e6;
+  CHECK(h->update(0, {{10, 10}}) == lslam::Status::NotPositiveDefinite);
+  CHECK(h->chol.columns() == 30);
+  CHECK(h->chol.liveBlocks() == live);
+  CHECK(h->chol.poolEnd() == pool_end);
+  CHECK((denseFactor(h->chol) - before).cwiseAbs().maxCoeff() == 0.0);
+}
