@@ -1,0 +1,23 @@
+#pragma once
+// Error functions of the 2D pose factors, in the g2o convention so that chi2 values and
+// information matrices read from g2o/TORO datasets mean the same thing here: the error is the
+// (x, y, wrapped theta) vector of a residual pose, not the Lie logarithm of it.
+//
+// Jacobians are w.r.t. right perturbations of the poses (x (+) tau = x * Exp(tau)); each output
+// pointer may be nullptr. These run once per factor per linearization, so they are written out
+// by hand rather than chained from SE2's group operations.
+#include "lslam/eigen.h"
+#include "lslam/geometry/se2.h"
+
+namespace lslam {
+
+// Between factor: z is the measured pose of xj seen from xi.
+// e = (x, y, wrapAngle(theta)) of z^-1 * (xi^-1 * xj).
+Vec3 betweenErrorSE2(const SE2& xi, const SE2& xj, const SE2& z, Mat3* J_e_xi = nullptr,
+                     Mat3* J_e_xj = nullptr) noexcept;
+
+// Prior factor: z is the measured pose of x.
+// e = (x, y, theta) of z^-1 * x.
+Vec3 priorErrorSE2(const SE2& x, const SE2& z, Mat3* J_e_x = nullptr) noexcept;
+
+}  // namespace lslam

@@ -1,0 +1,175 @@
+#pragma once
+// The incremental 2D pose-graph solver (L-SLAM): the policy on top of the pose graph, the
+// incremental Cholesky factor and the COLAMD ordering.
+//
+// Two phases, as in OSQP: the object is built with every buffer it will ever use (capacities are
+// template parameters of StaticPoseGraphSolver2D); update() and the rest never allocate. All the
+// logic lives in the size-erased PoseGraphSolver2D, compiled once for every capacity.
+//
+// A call that returns anything but Status::Ok has changed nothing: inputs are validated before
+// any change, and the factorization writes to staging memory until it has succeeded.
+#include <cstddef>
+#include <cstdint>
+
+#include "lslam/eigen.h"
+#include "lslam/factors/pose_graph_2d.h"
+#include "lslam/geometry/se2.h"
+#include "lslam/linear/colamd_ordering.h"
+#include "lslam/linear/incremental_cholesky.h"
+#include "lslam/solver/id_map.h"
+#include "lslam/solver/solver_options.h"
+#include "lslam/solver/update_result.h"
+
+namespace lslam {
+
+struct PoseInput {
+  VariableId id = 0;
+  SE2 initial;
+};
+
+// A measurement: a prior on pose `from` (to is ignored), or pose `to` seen from pose `from`.
+struct FactorInput {
+  FactorKind kind = FactorKind::BetweenSE2;
+  VariableId from = 0;
+  VariableId to = 0;
+  SE2 measurement;
+  Mat3 information = Mat3::Identity();
+};
+
+// Everything the solver works in besides its parts' own arrays.
+struct SolverArrays {
+  Index* position_of[2] = {nullptr, nullptr};  // double-buffered: a reordering is staged
+  Index* variable_at[2] = {nullptr, nullptr};
+  VariableId* id_of = nullptr;
+  Vec3* delta = nullptr;
+  Index* relinearize_list = nullptr;
+  std::uint8_t* relinearize_flag = nullptr;
+  Index* visited = nullptr;
+  Index* marked = nullptr;  // the variables relinearized by the update in progress
+};
+
+class PoseGraphSolver2D {
+ public:
+  PoseGraphSolver2D(const SolverArrays& arrays, const PoseGraph2DArrays& graph,
+                    const CholeskyArrays<3>& factor, const ColamdArrays& ordering,
+                    const IdMapArrays& ids, const SolverOptions& options);
+  PoseGraphSolver2D(const PoseGraphSolver2D&) = delete;
+  PoseGraphSolver2D& operator=(const PoseGraphSolver2D&) = delete;
+
+  // Adds new poses and measurements (each new pose must be tied to the graph by a measurement of
+  // this call, or by a prior), updates the factor and, by default, the solution.
+  [[nodiscard]] Status update(const PoseInput* poses, Index num_poses, const FactorInput* factors,
+                              Index num_factors, UpdateResult* result = nullptr);
+  // Back-substitution on demand (partial per options, or full).
+  void solve(bool full, UpdateResult* result = nullptr);
+  // Gauss-Newton to convergence: relinearize every variable that moved, refactor, solve, until the
+  // largest step is below `tolerance` or `max_iterations` were done.
+  [[nodiscard]] Status optimize(Index max_iterations, double tolerance,
+                                UpdateResult* result = nullptr);
+
+  // The current estimate of a pose (linearization point moved by the solution).
+  [[nodiscard]] Status estimate(VariableId id, SE2* pose) const;
+  SE2 estimateAt(Index variable) const;
+  VariableId idAt(Index variable) const { return a_.id_of[variable]; }
+  // Sum of e^T Omega e over all factors at the current estimate (priors included).
+  double chi2() const;
+
+  Index poses() const { return graph_.variables(); }
+  Index factors() const { return graph_.factors(); }
+  Index factorBlocks() const { return cholesky_.liveBlocks(); }
+  const SolverOptions& options() const { return options_; }
+  void setOptions(const SolverOptions& options) { options_ = options; }
+  const PoseGraph2D& graph() const { return graph_; }
+  const IncrementalCholesky<3>& factor() const { return cholesky_; }
+  const Index* positionOf() const { return a_.position_of[active_]; }
+  const Index* variableAt() const { return a_.variable_at[active_]; }
+
+ private:
+  Status validate(const PoseInput* poses, Index num_poses, const FactorInput* factors,
+                  Index num_factors);
+  Status checkAnchored(const PoseInput* poses, Index num_poses, const FactorInput* factors,
+                       Index num_factors) const;
+  void forgetNewIds(const PoseInput* poses, Index num_poses);
+  bool wantsReorder(Index new_variables) const;
+  Status computeOrdering(Index* variable_at, Index* position_of);
+  Index stageCandidates();
+  Index stageEveryMovedVariable(double tolerance);
+  Status refactor(Index new_poses, Index relinearized, bool allow_reorder, UpdateResult& result);
+  Status factorizeWithRetry(bool full, Index new_columns, const Index* variable_at,
+                            const Index* position_of, Index relinearized, UpdateResult& result);
+  void markAffectedColumns(const Index* position_of, Index relinearized);
+  void noteRelinearizationCandidates(Index visited);
+
+  SolverArrays a_;
+  PoseGraph2D graph_;
+  IncrementalCholesky<3> cholesky_;
+  ColamdOrdering ordering_;
+  IdMap ids_;
+  SolverOptions options_;
+  int active_ = 0;
+  Index relinearize_count_ = 0;
+  Index marked_count_ = 0;
+  Index first_new_factor_ = 0;
+  Index blocks_at_last_order_ = 0;
+  Index last_columns_refactored_ = 0;
+};
+
+namespace detail {
+
+// The memory of a solver, a base class so that it is built before the solver that points into it.
+template <Index MaxPoses, Index MaxFactors, Index MaxFactorBlocks>
+class SolverStorage2D {
+ protected:
+  StaticPoseGraph2DStorage<MaxPoses, MaxFactors> graph_storage_;
+  StaticCholeskyStorage<3, MaxPoses, MaxFactorBlocks> factor_storage_;
+  StaticColamdStorage<2 * MaxFactors, MaxFactors, MaxPoses> ordering_storage_;
+  StaticIdMapStorage<MaxPoses> id_storage_;
+  Index position_of_[2][MaxPoses];
+  Index variable_at_[2][MaxPoses];
+  VariableId id_of_[MaxPoses];
+  Vec3 delta_[MaxPoses];
+  Index relinearize_list_[MaxPoses];
+  std::uint8_t relinearize_flag_[MaxPoses];
+  Index visited_[MaxPoses];
+  Index marked_[MaxPoses];
+
+  SolverArrays solverArrays() {
+    SolverArrays s;
+    for (int b = 0; b < 2; ++b) {
+      s.position_of[b] = position_of_[b];
+      s.variable_at[b] = variable_at_[b];
+    }
+    s.id_of = id_of_;
+    s.delta = delta_;
+    s.relinearize_list = relinearize_list_;
+    s.relinearize_flag = relinearize_flag_;
+    s.visited = visited_;
+    s.marked = marked_;
+    return s;
+  }
+};
+
+}  // namespace detail
+
+// A solver with all its memory inside: max_poses variables, max_factors measurements, and
+// max_factor_blocks 3x3 blocks for the Cholesky factor (the live factor plus room for the columns
+// one update rewrites; a reordering rewrites them all, so leave about twice the expected fill).
+template <Index MaxPoses, Index MaxFactors, Index MaxFactorBlocks>
+class StaticPoseGraphSolver2D
+    : private detail::SolverStorage2D<MaxPoses, MaxFactors, MaxFactorBlocks>,
+      public PoseGraphSolver2D {
+  using Storage = detail::SolverStorage2D<MaxPoses, MaxFactors, MaxFactorBlocks>;
+
+ public:
+  static constexpr Index max_poses = MaxPoses;
+  static constexpr Index max_factors = MaxFactors;
+  static constexpr Index max_factor_blocks = MaxFactorBlocks;
+
+  explicit StaticPoseGraphSolver2D(const SolverOptions& options = SolverOptions{})
+      : Storage(),
+        PoseGraphSolver2D(Storage::solverArrays(), Storage::graph_storage_.arrays(),
+                          Storage::factor_storage_.arrays(), Storage::ordering_storage_.arrays(),
+                          Storage::id_storage_.arrays(), options) {}
+};
+
+}  // namespace lslam

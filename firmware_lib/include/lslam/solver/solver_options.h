@@ -1,0 +1,30 @@
+#pragma once
+#include <cstdint>
+
+#include "lslam/linear/index.h"
+
+namespace lslam {
+
+struct SolverOptions {
+  // A variable is relinearized (its factors' Jacobians recomputed at the current estimate) when its
+  // solution delta moved more than this far from its linearization point (max-norm over x, y in
+  // meters and theta in radians). iSAM2's usual value is 0.1; smaller stays closer to the optimum.
+  double relinearize_threshold = 0.01;
+  // Partial back-substitution: a subtree of the elimination tree is not re-solved when nothing it
+  // depends on moved by more than this (max-norm). 0 gives the exact solution of L^T x = d.
+  double backsubstitution_tolerance = 1e-6;
+  bool partial_backsubstitution = true;
+  // Back-substitute at the end of every update (otherwise call solve()).
+  bool solve_after_update = true;
+  // Ordering policy (see README "Ordering policy"): the whole graph is reordered with COLAMD (the
+  // newest variable last) when the factor has grown by this factor since the last ordering...
+  double reorder_growth = 1.5;
+  // ...or when one update recomputed more than this many columns (a long etree path).
+  Index reorder_path_columns = 200;
+  // Never reorder graphs smaller than this (chronological order is optimal for a chain).
+  Index reorder_min_variables = 50;
+  // Information of the prior that anchors the very first pose when the caller gives none.
+  double anchor_information = 1e6;
+};
+
+}  // namespace lslam

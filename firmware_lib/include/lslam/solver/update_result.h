@@ -1,0 +1,24 @@
+#pragma once
+#include <cstdint>
+
+#include "lslam/linear/index.h"
+#include "lslam/status.h"
+
+namespace lslam {
+
+// What one call did (as GTSAM's ISAM2Result): for diagnostics, logs and the per-step CSV.
+struct UpdateResult {
+  Status status = Status::Ok;
+  Index variables_added = 0;
+  Index factors_added = 0;
+  Index variables_relinearized = 0;
+  Index columns_refactored = 0;     // columns of L recomputed (etree paths, or all on a reorder)
+  Index variables_solved = 0;       // variables back-substituted
+  std::int64_t block_products = 0;  // 3x3 multiply-adds of the factorization
+  bool reordered = false;           // a COLAMD reordering (and full refactorization) happened
+  bool compacted = false;           // the block pool was compacted
+  Index factor_blocks = 0;          // nonzero blocks of L after the call
+  Index iterations = 0;             // optimize(): Gauss-Newton iterations done
+};
+
+}  // namespace lslam

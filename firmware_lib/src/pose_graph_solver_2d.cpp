@@ -1,0 +1,384 @@
+#include "lslam/solver/pose_graph_solver_2d.h"
+
+#include <cmath>
+
+#include "lslam/factors/information.h"
+#include "lslam/factors/se2_factors.h"
+
+namespace lslam {
+namespace {
+
+bool isFinite(const SE2& pose) {
+  return std::isfinite(pose.x()) && std::isfinite(pose.y()) && std::isfinite(pose.theta());
+}
+
+class ColumnMarker final : public NeighbourVisitor {
+ public:
+  ColumnMarker(IncrementalCholesky<3>& factor, const Index* position_of)
+      : factor_(factor), position_of_(position_of) {}
+  void visit(Index variable) override { factor_.markChanged(position_of_[variable]); }
+
+ private:
+  IncrementalCholesky<3>& factor_;
+  const Index* position_of_;
+};
+
+}  // namespace
+
+PoseGraphSolver2D::PoseGraphSolver2D(const SolverArrays& arrays, const PoseGraph2DArrays& graph,
+                                     const CholeskyArrays<3>& factor, const ColamdArrays& ordering,
+                                     const IdMapArrays& ids, const SolverOptions& options)
+    : a_(arrays),
+      graph_(graph),
+      cholesky_(factor),
+      ordering_(ordering),
+      ids_(ids),
+      options_(options) {
+  for (Index v = 0; v < graph_.maxVariables(); ++v) a_.relinearize_flag[v] = 0;
+}
+
+Status PoseGraphSolver2D::validate(const PoseInput* poses, Index num_poses,
+                                   const FactorInput* factors, Index num_factors) {
+  if (num_poses < 0 || num_factors < 0 || (num_poses > 0 && poses == nullptr) ||
+      (num_factors > 0 && factors == nullptr)) {
+    return Status::InvalidArgument;
+  }
+  if (num_poses > graph_.maxVariables() - graph_.variables() ||
+      num_factors > graph_.maxFactors() - graph_.factors()) {
+    return Status::CapacityExhausted;
+  }
+  for (Index i = 0; i < num_poses; ++i) {
+    if (!isFinite(poses[i].initial)) return Status::NonFiniteInput;
+    if (poses[i].id < 0) return Status::InvalidArgument;
+  }
+  // New ids enter the map now so that every lookup below is uniform; forgetNewIds() undoes it.
+  Index inserted = 0;
+  Status status = Status::Ok;
+  for (; inserted < num_poses; ++inserted) {
+    if (ids_.find(poses[inserted].id) != kNoIndex) {
+      status = Status::DuplicateVariable;
+      break;
+    }
+    ids_.insert(poses[inserted].id, graph_.variables() + inserted);
+  }
+  for (Index f = 0; f < num_factors && status == Status::Ok; ++f) {
+    const FactorInput& in = factors[f];
+    const bool between = in.kind == FactorKind::BetweenSE2;
+    if (ids_.find(in.from) == kNoIndex || (between && ids_.find(in.to) == kNoIndex)) {
+      status = Status::UnknownVariable;
+    } else if (between && in.from == in.to) {
+      status = Status::InvalidArgument;
+    } else if (!isFinite(in.measurement)) {
+      status = Status::NonFiniteInput;
+    } else {
+      status = checkInformation(in.information);
+    }
+  }
+  if (status == Status::Ok) status = checkAnchored(poses, num_poses, factors, num_factors);
+  if (status != Status::Ok) forgetNewIds(poses, inserted);
+  return status;
+}
+
+// Every new pose must be tied to the existing graph (or to a prior) through this call's factors;
+// a pose floating free would make Lambda singular, and rounding could hide that from the pivots.
+Status PoseGraphSolver2D::checkAnchored(const PoseInput*, Index num_poses,
+                                        const FactorInput* factors, Index num_factors) const {
+  const Index first_new = graph_.variables();
+  Index anchored = 0;
+  bool progress = true;
+  // a_.visited is free scratch outside solve(): a flag per new pose. Few poses per call: the
+  // repeated sweeps stay small.
+  Index* is_anchored = a_.visited;
+  for (Index i = 0; i < num_poses; ++i) is_anchored[i] = 0;
+  // The very first pose of an empty graph is anchored by the solver (update() adds a prior).
+  if (first_new == 0 && num_poses > 0) {
+    is_anchored[0] = 1;
+    anchored = 1;
+  }
+  while (progress && anchored < num_poses) {
+    progress = false;
+    for (Index f = 0; f < num_factors; ++f) {
+      const FactorInput& in = factors[f];
+      const Index a = ids_.find(in.from) - first_new;
+      if (in.kind == FactorKind::PriorSE2) {
+        if (a >= 0 && is_anchored[a] == 0) {
+          is_anchored[a] = 1;
+          ++anchored;
+          progress = true;
+        }
+        continue;
+      }
+      const Index b = ids_.find(in.to) - first_new;
+      const bool a_known = a < 0 || is_anchored[a] != 0;
+      const bool b_known = b < 0 || is_anchored[b] != 0;
+      if (a_known != b_known) {
+        is_anchored[a_known ? b : a] = 1;
+        ++anchored;
+        progress = true;
+      }
+    }
+  }
+  return anchored == num_poses ? Status::Ok : Status::UnconstrainedVariable;
+}
+
+void PoseGraphSolver2D::forgetNewIds(const PoseInput* poses, Index num_poses) {
+  for (Index i = num_poses - 1; i >= 0; --i) ids_.eraseNewest(poses[i].id);
+}
+
+// Reorder when the factor has grown well past what the last ordering produced, or when the last
+// update had to walk a long elimination-tree path (a loop closure far back in the order).
+bool PoseGraphSolver2D::wantsReorder(Index new_variables) const {
+  const Index n = graph_.variables() + new_variables;
+  if (n < options_.reorder_min_variables) return false;
+  if (blocks_at_last_order_ == 0) return true;
+  return cholesky_.liveBlocks() >
+             static_cast<Index>(options_.reorder_growth * blocks_at_last_order_) ||
+         last_columns_refactored_ > options_.reorder_path_columns;
+}
+
+// COLAMD on the factor-variable incidence of every variable except the newest committed one,
+// which goes last, followed by the variables this update adds: the next odometry factor then
+// touches only the last columns, so it stays constant-time after a reordering too.
+Status PoseGraphSolver2D::computeOrdering(Index* variable_at, Index* position_of) {
+  const Index committed = cholesky_.columns();
+  const Index last = committed - 1;
+  ordering_.begin();
+  for (Index v = 0; v < committed; ++v) {
+    if (v == last) continue;
+    ordering_.startColumn();
+    for (Index e = graph_.firstEntry(v); e != kNoIndex; e = graph_.nextEntry(e)) {
+      if (!ordering_.addEntry(graph_.entryFactor(e))) return Status::WorkspaceExhausted;
+    }
+  }
+  const Status s = ordering_.order(graph_.factors(), variable_at);
+  if (s != Status::Ok) return s;
+  // The columns given to COLAMD were the variables 0 .. last - 1 in order: its output is already
+  // in variable numbers.
+  variable_at[last] = last;
+  for (Index v = committed; v < graph_.variables(); ++v) variable_at[v] = v;
+  for (Index k = 0; k < graph_.variables(); ++k) position_of[variable_at[k]] = k;
+  return Status::Ok;
+}
+
+Status PoseGraphSolver2D::update(const PoseInput* poses, Index num_poses,
+                                 const FactorInput* factors, Index num_factors,
+                                 UpdateResult* result) {
+  UpdateResult local;
+  UpdateResult& r = result != nullptr ? *result : local;
+  r = UpdateResult{};
+  const bool anchor = graph_.variables() == 0 && num_poses > 0;
+  Status s = (anchor && num_factors + 1 > graph_.maxFactors())
+                 ? Status::CapacityExhausted
+                 : validate(poses, num_poses, factors, num_factors);
+  if (s != Status::Ok) {
+    r.status = s;
+    return s;
+  }
+  graph_.beginUpdate();
+  first_new_factor_ = graph_.factors();
+  for (Index i = 0; i < num_poses; ++i) graph_.addVariable(poses[i].initial);
+  if (anchor) {
+    // The gauge: the first pose stays where it was given (chi2 is gauge-invariant, so the strength
+    // of this prior does not change the optimum).
+    graph_.addPrior(0, poses[0].initial, Mat3::Identity() * options_.anchor_information);
+  }
+  for (Index f = 0; f < num_factors; ++f) {
+    const FactorInput& in = factors[f];
+    if (in.kind == FactorKind::PriorSE2) {
+      graph_.addPrior(ids_.find(in.from), in.measurement, in.information);
+    } else {
+      graph_.addBetween(ids_.find(in.from), ids_.find(in.to), in.measurement, in.information);
+    }
+  }
+  const Index relinearized = stageCandidates();
+  s = refactor(num_poses, relinearized, true, r);
+  if (s != Status::Ok) {
+    forgetNewIds(poses, num_poses);
+    return s;
+  }
+  for (Index i = 0; i < num_poses; ++i) a_.id_of[graph_.variables() - num_poses + i] = poses[i].id;
+  r.variables_added = num_poses;
+  r.factors_added = graph_.factors() - first_new_factor_;
+  if (options_.solve_after_update) solve(false, &r);
+  return Status::Ok;
+}
+
+// The variables the last solve found beyond the relinearization threshold.
+Index PoseGraphSolver2D::stageCandidates() {
+  Index count = 0;
+  for (Index i = 0; i < relinearize_count_; ++i) {
+    const Index v = a_.relinearize_list[i];
+    if (a_.delta[v].cwiseAbs().maxCoeff() <= options_.relinearize_threshold) continue;
+    graph_.relinearize(v, graph_.linearizationPoint(v).retract(a_.delta[v]));
+    a_.marked[count++] = v;
+  }
+  return count;
+}
+
+Index PoseGraphSolver2D::stageEveryMovedVariable(double tolerance) {
+  Index count = 0;
+  for (Index v = 0; v < graph_.variables(); ++v) {
+    if (a_.delta[v].cwiseAbs().maxCoeff() <= tolerance) continue;
+    graph_.relinearize(v, graph_.linearizationPoint(v).retract(a_.delta[v]));
+    a_.marked[count++] = v;
+  }
+  return count;
+}
+
+// Factorizes the staged graph change (new poses at the end, relinearized variables in a_.marked),
+// reordering first if the policy says so; commits everything or rolls the graph back.
+Status PoseGraphSolver2D::refactor(Index new_poses, Index relinearized, bool allow_reorder,
+                                   UpdateResult& r) {
+  const Index n = cholesky_.columns();
+  bool full = allow_reorder && wantsReorder(new_poses);
+  int buffer = active_;
+  if (full) {
+    buffer = 1 - active_;
+    full = computeOrdering(a_.variable_at[buffer], a_.position_of[buffer]) == Status::Ok;
+    if (!full) buffer = active_;  // no workspace for an ordering: keep the current one
+  }
+  Index* variable_at = a_.variable_at[buffer];
+  Index* position_of = a_.position_of[buffer];
+  if (!full) {
+    for (Index v = n; v < n + new_poses; ++v) {
+      variable_at[v] = v;
+      position_of[v] = v;
+    }
+  }
+  const Status s = factorizeWithRetry(full, new_poses, variable_at, position_of, relinearized, r);
+  if (s != Status::Ok) {
+    graph_.rollback();
+    r.status = s;
+    return s;
+  }
+  graph_.commit();
+  active_ = buffer;
+  for (Index i = 0; i < relinearized; ++i) a_.delta[a_.marked[i]].setZero();
+  for (Index v = n; v < n + new_poses; ++v) a_.delta[v].setZero();
+  for (Index i = 0; i < relinearize_count_; ++i) a_.relinearize_flag[a_.relinearize_list[i]] = 0;
+  relinearize_count_ = 0;
+  const FactorizationStats& stats = cholesky_.lastStats();
+  if (full) blocks_at_last_order_ = cholesky_.liveBlocks();
+  last_columns_refactored_ = full ? 0 : stats.columns_recomputed;
+  r.reordered = full;
+  r.variables_relinearized = relinearized;
+  r.columns_refactored = stats.columns_recomputed;
+  r.block_products = stats.block_products;
+  r.factor_blocks = cholesky_.liveBlocks();
+  return Status::Ok;
+}
+
+Status PoseGraphSolver2D::factorizeWithRetry(bool full, Index new_columns, const Index* variable_at,
+                                             const Index* position_of, Index relinearized,
+                                             UpdateResult& r) {
+  for (int attempt = 0;; ++attempt) {
+    cholesky_.beginUpdate(new_columns, full);
+    if (!full) markAffectedColumns(position_of, relinearized);
+    const Status s = cholesky_.factorize(graph_, variable_at, position_of);
+    if (s == Status::Ok) {
+      cholesky_.commit();
+      return s;
+    }
+    cholesky_.rollback();
+    // A full pool is often only garbage left by earlier updates: squeeze it out and try once more.
+    if (s != Status::CapacityExhausted || attempt > 0) return s;
+    cholesky_.compact();
+    r.compacted = true;
+  }
+}
+
+void PoseGraphSolver2D::markAffectedColumns(const Index* position_of, Index relinearized) {
+  for (Index f = first_new_factor_; f < graph_.factors(); ++f) {
+    cholesky_.markChanged(position_of[graph_.firstVariable(f)]);
+    if (graph_.secondVariable(f) != kNoIndex) {
+      cholesky_.markChanged(position_of[graph_.secondVariable(f)]);
+    }
+  }
+  // A relinearized variable changes its own column of Lambda and those of its neighbours.
+  ColumnMarker marker(cholesky_, position_of);
+  for (Index i = 0; i < relinearized; ++i) {
+    const Index v = a_.marked[i];
+    cholesky_.markChanged(position_of[v]);
+    graph_.visitNeighbours(v, marker);
+  }
+}
+
+void PoseGraphSolver2D::solve(bool full, UpdateResult* result) {
+  const bool exact = full || !options_.partial_backsubstitution;
+  const Index visited = cholesky_.backSubstitute(
+      a_.delta, variableAt(), options_.backsubstitution_tolerance, exact, a_.visited);
+  noteRelinearizationCandidates(visited);
+  if (result != nullptr) result->variables_solved = visited;
+}
+
+void PoseGraphSolver2D::noteRelinearizationCandidates(Index visited) {
+  const Index* variable_at = variableAt();
+  for (Index i = 0; i < visited; ++i) {
+    const Index v = variable_at[a_.visited[i]];
+    if (a_.relinearize_flag[v] != 0) continue;
+    if (a_.delta[v].cwiseAbs().maxCoeff() > options_.relinearize_threshold) {
+      a_.relinearize_flag[v] = 1;
+      a_.relinearize_list[relinearize_count_++] = v;
+    }
+  }
+}
+
+Status PoseGraphSolver2D::optimize(Index max_iterations, double tolerance, UpdateResult* result) {
+  UpdateResult local;
+  UpdateResult& r = result != nullptr ? *result : local;
+  r = UpdateResult{};
+  if (max_iterations < 0 || !(tolerance >= 0.0)) return Status::InvalidArgument;
+  solve(true, nullptr);
+  for (Index it = 0; it < max_iterations; ++it) {
+    graph_.beginUpdate();
+    first_new_factor_ = graph_.factors();
+    const Index relinearized = stageEveryMovedVariable(tolerance);
+    if (relinearized == 0) {
+      graph_.commit();  // nothing staged: commit is a no-op
+      break;
+    }
+    UpdateResult step;
+    const Status s = refactor(0, relinearized, false, step);
+    if (s != Status::Ok) {
+      r.status = s;
+      return s;
+    }
+    solve(true, nullptr);
+    r.iterations = it + 1;
+    r.variables_relinearized += step.variables_relinearized;
+    r.columns_refactored += step.columns_refactored;
+    r.block_products += step.block_products;
+  }
+  r.factor_blocks = cholesky_.liveBlocks();
+  return Status::Ok;
+}
+
+SE2 PoseGraphSolver2D::estimateAt(Index variable) const {
+  return graph_.linearizationPoint(variable).retract(a_.delta[variable]);
+}
+
+Status PoseGraphSolver2D::estimate(VariableId id, SE2* pose) const {
+  if (pose == nullptr) return Status::InvalidArgument;
+  const Index v = ids_.find(id);
+  if (v == kNoIndex) return Status::UnknownVariable;
+  *pose = estimateAt(v);
+  return Status::Ok;
+}
+
+double PoseGraphSolver2D::chi2() const {
+  double total = 0.0;
+  for (Index f = 0; f < graph_.factors(); ++f) {
+    const Index i = graph_.firstVariable(f);
+    Vec3 e;
+    if (graph_.kind(f) == FactorKind::PriorSE2) {
+      e = priorErrorSE2(estimateAt(i), graph_.measurement(f));
+    } else {
+      e = betweenErrorSE2(estimateAt(i), estimateAt(graph_.secondVariable(f)),
+                          graph_.measurement(f));
+    }
+    total += e.dot(graph_.information(f) * e);
+  }
+  return total;
+}
+
+}  // namespace lslam

@@ -1,0 +1,192 @@
+#include "lslam/geometry/se2.h"
+
+#include <cmath>
+
+namespace lslam {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kTwoPi = 2.0 * kPi;
+
+// Below this angle the coefficients whose closed forms are merely 0/0 at w = 0 (sin(w)/w,
+// (w/2)cot(w/2)) switch to two-term Taylor series; the dropped w^4 terms are < 1e-17 here.
+constexpr double kTinyAngle = 1e-4;
+
+// (w - sin w)/w^2 and (w/2)cot(w/2) - 1 cancel catastrophically near w = 0: the direct forms
+// lose about 2*log10(1/w) digits. Below this angle they use five-term Taylor series instead.
+// 0.3 balances the two errors: at the switch both are below 4e-14 relative.
+constexpr double kSeriesAngle = 0.3;
+
+// sin(w)/w
+double sinc(double w) noexcept {
+  if (std::abs(w) < kTinyAngle) return 1.0 - w * w / 6.0;
+  return std::sin(w) / w;
+}
+
+// (1 - cos w)/w^2, formed as (1/2) sinc(w/2)^2: the direct 1 - cos w cancels for small w.
+double versineOverSquare(double w) noexcept {
+  const double s = sinc(0.5 * w);
+  return 0.5 * s * s;
+}
+
+// (w - sin w)/w^2
+double sineDefectOverSquare(double w) noexcept {
+  if (std::abs(w) < kSeriesAngle) {
+    const double w2 = w * w;
+    return w * (1.0 / 6.0 + w2 * (-1.0 / 120.0 +
+                                  w2 * (1.0 / 5040.0 + w2 * (-1.0 / 362880.0 + w2 / 39916800.0))));
+  }
+  return (w - std::sin(w)) / (w * w);
+}
+
+// (w/2) cot(w/2): the scale of the inverse of the V matrix of Exp. Written as h / tan(h), which
+// stays accurate up to w = pi (tan(pi/2) is large but finite in floating point).
+double halfCotScale(double w) noexcept {
+  const double h = 0.5 * w;
+  if (std::abs(w) < kTinyAngle) return 1.0 - h * h / 3.0;
+  return h / std::tan(h);
+}
+
+// ((w/2) cot(w/2) - 1)/w, the translation coupling of the inverse right Jacobian.
+double halfCotDefect(double w) noexcept {
+  if (std::abs(w) < kSeriesAngle) {
+    const double w2 = w * w;
+    return -w * (1.0 / 12.0 + w2 * (1.0 / 720.0 + w2 * (1.0 / 30240.0 +
+                                                        w2 * (1.0 / 1209600.0 + w2 / 47900160.0))));
+  }
+  return (halfCotScale(w) - 1.0) / w;
+}
+
+// Ad(X^-1) for X = (x, y, theta) with c = cos(theta), s = sin(theta). It carries a right
+// perturbation through a right product: a * Exp(tau) * b = a * b * Exp(Ad(b^-1) tau).
+Mat3 adjointOfInverse(double x, double y, double c, double s) noexcept {
+  Mat3 m;
+  m << c, s, s * x - c * y,  //
+      -s, c, c * x + s * y,  //
+      0.0, 0.0, 1.0;
+  return m;
+}
+
+}  // namespace
+
+double wrapAngle(double angle) noexcept {
+  if (angle > -kPi && angle <= kPi) return angle;  // the common case costs one comparison pair
+  // The IEEE remainder is exact and lies in [-pi, pi]; only -pi needs moving to the open end.
+  double r = std::remainder(angle, kTwoPi);
+  if (r <= -kPi) r += kTwoPi;
+  return r;
+}
+
+SE2::SE2(double x, double y, double theta) noexcept : x_(x), y_(y), theta_(wrapAngle(theta)) {}
+
+Mat2 SE2::rotation() const noexcept {
+  const double c = std::cos(theta_);
+  const double s = std::sin(theta_);
+  Mat2 r;
+  r << c, -s, s, c;
+  return r;
+}
+
+SE2 SE2::compose(const SE2& b, Mat3* J_c_a, Mat3* J_c_b) const noexcept {
+  const double c = std::cos(theta_);
+  const double s = std::sin(theta_);
+  if (J_c_a != nullptr) {
+    *J_c_a = adjointOfInverse(b.x_, b.y_, std::cos(b.theta_), std::sin(b.theta_));
+  }
+  if (J_c_b != nullptr) J_c_b->setIdentity();
+  return SE2(x_ + c * b.x_ - s * b.y_, y_ + s * b.x_ + c * b.y_, theta_ + b.theta_);
+}
+
+SE2 SE2::inverse(Mat3* J_inv_a) const noexcept {
+  const double c = std::cos(theta_);
+  const double s = std::sin(theta_);
+  if (J_inv_a != nullptr) {
+    // -Ad(a): a right perturbation of a becomes a left one of a^-1, with the sign flipped.
+    *J_inv_a << -c, s, -y_,  //
+        -s, -c, x_,          //
+        0.0, 0.0, -1.0;
+  }
+  return SE2(-(c * x_ + s * y_), s * x_ - c * y_, -theta_);
+}
+
+SE2 SE2::between(const SE2& b, Mat3* J_d_a, Mat3* J_d_b) const noexcept {
+  const double c = std::cos(theta_);
+  const double s = std::sin(theta_);
+  const double dx = b.x_ - x_;
+  const double dy = b.y_ - y_;
+  const SE2 d(c * dx + s * dy, -s * dx + c * dy, b.theta_ - theta_);
+  if (J_d_a != nullptr) {
+    // Exp(-tau) a^-1 b = d Exp(-Ad(d^-1) tau).
+    *J_d_a = -adjointOfInverse(d.x_, d.y_, std::cos(d.theta_), std::sin(d.theta_));
+  }
+  if (J_d_b != nullptr) J_d_b->setIdentity();
+  return d;
+}
+
+Vec2 SE2::transformFrom(const Vec2& p_local, Mat23* J_p_a, Mat2* J_p_p) const noexcept {
+  const double c = std::cos(theta_);
+  const double s = std::sin(theta_);
+  const double rx = c * p_local.x() - s * p_local.y();
+  const double ry = s * p_local.x() + c * p_local.y();
+  if (J_p_a != nullptr) {
+    // a Exp(v, w) p = t + R (v + p + w J p) to first order, and R J p = J R p.
+    *J_p_a << c, -s, -ry,  //
+        s, c, rx;
+  }
+  if (J_p_p != nullptr) *J_p_p << c, -s, s, c;
+  return Vec2(x_ + rx, y_ + ry);
+}
+
+// Exp(v, w) = (V(w) v, w) with V = [a -b; b a], a = sin(w)/w, b = (1 - cos w)/w.
+// Its right Jacobian is [[a, b, g vx - e vy], [-b, a, g vy + e vx], [0, 0, 1]] with
+// e = (1 - cos w)/w^2 and g = (w - sin w)/w^2.
+SE2 SE2::exp(const Vec3& tau, Mat3* J_r) noexcept {
+  const double vx = tau(0);
+  const double vy = tau(1);
+  const double w = tau(2);
+  const double a = sinc(w);
+  const double e = versineOverSquare(w);
+  const double b = w * e;
+  if (J_r != nullptr) {
+    const double g = sineDefectOverSquare(w);
+    *J_r << a, b, g * vx - e * vy,  //
+        -b, a, g * vy + e * vx,     //
+        0.0, 0.0, 1.0;
+  }
+  return SE2(a * vx - b * vy, b * vx + a * vy, w);
+}
+
+// V^-1 = [k h; -h k] with h = w/2, k = h cot h. The inverse right Jacobian, the inverse of the
+// block-triangular J_r above, simplifies to [[k, -h, -p vx + vy/2], [h, k, -p vy - vx/2],
+// [0, 0, 1]] with p = (k - 1)/w.
+Vec3 SE2::log(Mat3* J_r_inv) const noexcept {
+  const double h = 0.5 * theta_;
+  const double k = halfCotScale(theta_);
+  const double vx = k * x_ + h * y_;
+  const double vy = -h * x_ + k * y_;
+  if (J_r_inv != nullptr) {
+    const double p = halfCotDefect(theta_);
+    *J_r_inv << k, -h, -p * vx + 0.5 * vy,  //
+        h, k, -p * vy - 0.5 * vx,           //
+        0.0, 0.0, 1.0;
+  }
+  return Vec3(vx, vy, theta_);
+}
+
+SE2 SE2::retract(const Vec3& tau, Mat3* J_x_a, Mat3* J_x_tau) const noexcept {
+  // The Jacobian of a * b w.r.t. b is the identity, so d(a Exp(tau))/d tau is J_r itself.
+  return compose(exp(tau, J_x_tau), J_x_a, nullptr);
+}
+
+Vec3 SE2::localCoordinates(const SE2& b, Mat3* J_t_a, Mat3* J_t_b) const noexcept {
+  Mat3 J_d_a;
+  Mat3 J_r_inv;
+  const bool want_jacobian = J_t_a != nullptr || J_t_b != nullptr;
+  const SE2 d = between(b, J_t_a != nullptr ? &J_d_a : nullptr, nullptr);
+  const Vec3 tau = d.log(want_jacobian ? &J_r_inv : nullptr);
+  if (J_t_a != nullptr) *J_t_a = J_r_inv * J_d_a;
+  if (J_t_b != nullptr) *J_t_b = J_r_inv;  // the Jacobian of between w.r.t. b is the identity
+  return tau;
+}
+
+}  // namespace lslam

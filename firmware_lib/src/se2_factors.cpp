@@ -1,0 +1,72 @@
+#include "lslam/factors/se2_factors.h"
+
+#include <cmath>
+
+// Derivation. Write a pose as (t, R) and let J = [0 -1; 1 0], so that R(w) = I + w J to first
+// order. The residual pose is E = z^-1 xi^-1 xj with
+//   t_E = Rz^T (Ri^T (tj - ti) - tz),   theta_E = thj - thi - thz.
+//
+// xj -> xj Exp(v, w): tj -> tj + Rj v, thj -> thj + w, hence
+//   d t_E = Rz^T Ri^T Rj v = R(theta_E) v,   d theta_E = w,
+//   J_e_xj = [R(theta_E) 0; 0 1].
+//
+// xi -> xi Exp(v, w): ti -> ti + Ri v and Ri^T -> (I - w J) Ri^T. With d = Ri^T (tj - ti),
+//   d -> (I - w J)(d - v) = d - v - w J d,
+//   d t_E = -Rz^T v - w Rz^T J d = -Rz^T v - w J u,   u = Rz^T d   (rotations commute with J),
+//   J_e_xi = [-Rz^T  (uy, -ux)^T; 0 0 -1].
+//
+// The prior is the same error with xi fixed at the identity. The wrap of theta has derivative 1
+// everywhere except on its cut, where the error itself jumps.
+
+namespace lslam {
+namespace {
+
+// [R(theta) 0; 0 1]
+Mat3 rotationBlock(double theta) noexcept {
+  const double c = std::cos(theta);
+  const double s = std::sin(theta);
+  Mat3 m;
+  m << c, -s, 0.0,  //
+      s, c, 0.0,    //
+      0.0, 0.0, 1.0;
+  return m;
+}
+
+}  // namespace
+
+Vec3 betweenErrorSE2(const SE2& xi, const SE2& xj, const SE2& z, Mat3* J_e_xi,
+                     Mat3* J_e_xj) noexcept {
+  const double ci = std::cos(xi.theta());
+  const double si = std::sin(xi.theta());
+  const double cz = std::cos(z.theta());
+  const double sz = std::sin(z.theta());
+  const double wx = xj.x() - xi.x();
+  const double wy = xj.y() - xi.y();
+  // d: translation of xi^-1 xj
+  const double dx = ci * wx + si * wy;
+  const double dy = -si * wx + ci * wy;
+  const double ex = dx - z.x();
+  const double ey = dy - z.y();
+  const double e_theta = wrapAngle(xj.theta() - xi.theta() - z.theta());
+  if (J_e_xi != nullptr) {
+    const double ux = cz * dx + sz * dy;
+    const double uy = -sz * dx + cz * dy;
+    *J_e_xi << -cz, -sz, uy,  //
+        sz, -cz, -ux,         //
+        0.0, 0.0, -1.0;
+  }
+  if (J_e_xj != nullptr) *J_e_xj = rotationBlock(e_theta);
+  return Vec3(cz * ex + sz * ey, -sz * ex + cz * ey, e_theta);
+}
+
+Vec3 priorErrorSE2(const SE2& x, const SE2& z, Mat3* J_e_x) noexcept {
+  const double cz = std::cos(z.theta());
+  const double sz = std::sin(z.theta());
+  const double ex = x.x() - z.x();
+  const double ey = x.y() - z.y();
+  const double e_theta = wrapAngle(x.theta() - z.theta());
+  if (J_e_x != nullptr) *J_e_x = rotationBlock(e_theta);
+  return Vec3(cz * ex + sz * ey, -sz * ex + cz * ey, e_theta);
+}
+
+}  // namespace lslam

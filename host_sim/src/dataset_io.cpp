@@ -1,0 +1,507 @@
+#include "host_sim/dataset_io.h"
+
+#include <algorithm>
+#include <array>
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <istream>
+#include <limits>
+#include <optional>
+#include <ostream>
+#include <stdexcept>
+#include <string_view>
+#include <system_error>
+#include <unordered_map>
+#include <utility>
+
+namespace lslam::sim {
+
+namespace {
+
+constexpr std::int64_t kMaxId = std::numeric_limits<std::int32_t>::max();  // 2^31 - 1
+
+// The record kinds the readers know. Edge2 is resolved to TORO or iSAM per file.
+enum class Tag { VertexSE2, EdgeSE2, Fix, Vertex2, Edge2, Odometry, Other };
+
+Tag classify(std::string_view tag) {
+  if (tag == "VERTEX_SE2") return Tag::VertexSE2;
+  if (tag == "EDGE_SE2") return Tag::EdgeSE2;
+  if (tag == "FIX") return Tag::Fix;
+  if (tag == "VERTEX2") return Tag::Vertex2;
+  if (tag == "EDGE2") return Tag::Edge2;
+  if (tag == "ODOMETRY") return Tag::Odometry;
+  return Tag::Other;
+}
+
+bool contains(std::string_view s, std::string_view part) {
+  return s.find(part) != std::string_view::npos;
+}
+
+// Reason for a tag that is not a supported 2D pose record.
+std::string unsupportedReason(std::string_view tag) {
+  const std::string quoted = "'" + std::string(tag) + "'";
+  const bool is_3d = contains(tag, "SE3") || contains(tag, "XYZ") || tag == "EDGE3" ||
+                     tag == "VERTEX3" || tag == "POINT3" || tag == "POSE3";
+  if (is_3d) return "unsupported record " + quoted + " (3D records are not supported)";
+  const bool is_landmark = tag == "LANDMARK" || tag == "POINT2" || contains(tag, "_XY") ||
+                           contains(tag, "POINTXY") || contains(tag, "BEARING");
+  if (is_landmark) {
+    return "unsupported record " + quoted + " (2D landmarks are not supported yet)";
+  }
+  return "unknown record " + quoted +
+         " (expected g2o VERTEX_SE2/EDGE_SE2/FIX, TORO VERTEX2/EDGE2 or iSAM EDGE2/ODOMETRY)";
+}
+
+bool isBlank(char c) {
+  return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\v' || c == '\f';
+}
+
+std::vector<std::string_view> tokenize(std::string_view s) {
+  std::vector<std::string_view> out;
+  std::size_t i = 0;
+  while (i < s.size()) {
+    while (i < s.size() && isBlank(s[i])) ++i;
+    if (i >= s.size()) break;
+    const std::size_t start = i;
+    while (i < s.size() && !isBlank(s[i])) ++i;
+    out.push_back(s.substr(start, i - start));
+  }
+  return out;
+}
+
+// Printable form of a token for an error message (long or binary tokens shortened/escaped).
+std::string show(std::string_view token) {
+  std::string out = "'";
+  const std::size_t n = std::min<std::size_t>(token.size(), 40);
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto c = static_cast<unsigned char>(token[i]);
+    if (c >= 0x20 && c < 0x7f) {
+      out += static_cast<char>(c);
+    } else {
+      static const char* const kHex = "0123456789abcdef";
+      out += "\\x";
+      out += kHex[c >> 4];
+      out += kHex[c & 0xf];
+    }
+  }
+  if (token.size() > n) out += "...";
+  out += "'";
+  return out;
+}
+
+// One significant line of the file.
+struct Record {
+  std::size_t line = 0;
+  std::vector<std::string_view> tokens;
+  Tag tag = Tag::Other;
+};
+
+// Parses the fields of one record; every failure names the file and the line.
+class FieldParser {
+ public:
+  FieldParser(const std::string& file, const Record& r) : file_(file), r_(r) {}
+
+  [[noreturn]] void fail(const std::string& reason) const {
+    throw DatasetError(file_, r_.line, reason);
+  }
+
+  void expectFields(std::size_t n) const {
+    const std::size_t got = r_.tokens.size();
+    if (got == n) return;
+    const std::string tag(r_.tokens[0]);
+    if (got < n) {
+      fail(tag + ": expected " + std::to_string(n) + " fields, got " + std::to_string(got) +
+           " (truncated line?)");
+    }
+    fail(tag + ": trailing garbage " + show(r_.tokens[n]) + " (expected " + std::to_string(n) +
+         " fields, got " + std::to_string(got) + ")");
+  }
+
+  std::int64_t id(std::size_t i, const char* field) const {
+    const std::string_view t = r_.tokens[i];
+    std::int64_t v = 0;
+    const char* end = t.data() + t.size();
+    const auto res = std::from_chars(t.data(), end, v);
+    if (res.ec == std::errc::result_out_of_range && res.ptr == end) {
+      fail(where(field) + ": id out of range " + show(t) + " (ids must be in 0.." +
+           std::to_string(kMaxId) + ")");
+    }
+    if (res.ec != std::errc() || res.ptr != end) {
+      fail(where(field) + ": " + show(t) + " is not an integer id");
+    }
+    if (v < 0 || v > kMaxId) {
+      fail(where(field) + ": id out of range " + show(t) + " (ids must be in 0.." +
+           std::to_string(kMaxId) + ")");
+    }
+    return v;
+  }
+
+  double number(std::size_t i, const char* field) const {
+    const std::string_view t = r_.tokens[i];
+    std::string_view body = t;
+    // An explicit '+' is accepted (std::from_chars does not take it), but only once.
+    if (!body.empty() && body[0] == '+') {
+      body.remove_prefix(1);
+      if (body.empty() || body[0] == '+' || body[0] == '-') {
+        fail(where(field) + ": " + show(t) + " is not a number");
+      }
+    }
+    double v = 0.0;
+    const char* end = body.data() + body.size();
+    const auto res = std::from_chars(body.data(), end, v, std::chars_format::general);
+    if (res.ptr != end || res.ec == std::errc::invalid_argument) {
+      fail(where(field) + ": " + show(t) + " is not a number");
+    }
+    if (res.ec == std::errc::result_out_of_range) {
+      fail(where(field) + ": value " + show(t) + " is out of the range of a double");
+    }
+    if (res.ec != std::errc()) fail(where(field) + ": " + show(t) + " is not a number");
+    if (!std::isfinite(v)) {
+      fail(where(field) + ": non-finite value " + show(t));
+    }
+    return v;
+  }
+
+ private:
+  // "EDGE_SE2 field dx"
+  std::string where(const char* field) const {
+    return std::string(r_.tokens[0]) + " field " + field;
+  }
+
+  const std::string& file_;
+  const Record& r_;
+};
+
+constexpr std::array<const char*, 6> kInfoFieldsG2o = {"I11", "I12", "I13", "I22", "I23", "I33"};
+constexpr std::array<const char*, 6> kInfoFieldsToro = {"inf_ff", "inf_fs", "inf_ss",
+                                                        "inf_rr", "inf_fr", "inf_sr"};
+constexpr std::array<const char*, 6> kInfoFieldsIsam = {"R11", "R12", "R13", "R22", "R23", "R33"};
+
+Vertex2D parseVertex(const std::string& file, const Record& r) {
+  const FieldParser p(file, r);
+  p.expectFields(5);
+  Vertex2D v;
+  v.id = p.id(1, "id");
+  v.pose.x = p.number(2, "x");
+  v.pose.y = p.number(3, "y");
+  v.pose.theta = p.number(4, "theta");
+  v.line = r.line;
+  return v;
+}
+
+// EDGE_SE2 / EDGE2 / ODOMETRY: i j dx dy dth + 6 matrix entries, interpreted per `format`.
+Edge2D parseEdge(const std::string& file, const Record& r, DatasetFormat format) {
+  const FieldParser p(file, r);
+  p.expectFields(12);
+  Edge2D e;
+  e.from = p.id(1, "from");
+  e.to = p.id(2, "to");
+  e.measurement.x = p.number(3, "dx");
+  e.measurement.y = p.number(4, "dy");
+  e.measurement.theta = p.number(5, "dtheta");
+  const auto& names = format == DatasetFormat::G2o    ? kInfoFieldsG2o
+                      : format == DatasetFormat::Toro ? kInfoFieldsToro
+                                                      : kInfoFieldsIsam;
+  std::array<double, 6> a{};
+  for (std::size_t k = 0; k < 6; ++k) a[k] = p.number(6 + k, names[k]);
+  if (e.from == e.to) {
+    p.fail(std::string(r.tokens[0]) + ": edge from pose " + std::to_string(e.from) +
+           " to itself (from == to)");
+  }
+  Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
+  switch (format) {
+    case DatasetFormat::G2o:  // I11 I12 I13 I22 I23 I33
+      m << a[0], a[1], a[2],  //
+          a[1], a[3], a[4],   //
+          a[2], a[4], a[5];
+      break;
+    case DatasetFormat::Toro:  // xx xy yy thth xth yth
+      m << a[0], a[1], a[4],   //
+          a[1], a[2], a[5],    //
+          a[4], a[5], a[3];
+      break;
+    case DatasetFormat::Isam: {  // R (upper triangular, row-major), information = R^T R
+      const double sr[3][3] = {{a[0], a[1], a[2]}, {0.0, a[3], a[4]}, {0.0, 0.0, a[5]}};
+      for (int i = 0; i < 3; ++i) {
+        for (int j = i; j < 3; ++j) {
+          double sum = 0.0;
+          for (int k = 0; k <= i; ++k) sum += sr[k][i] * sr[k][j];  // R(k,i) = 0 for k > i
+          m(i, j) = sum;
+          m(j, i) = sum;
+        }
+      }
+      if (!m.allFinite()) p.fail("information R^T R overflows (square-root information too large)");
+      break;
+    }
+  }
+  e.information = m;
+  e.line = r.line;
+  return e;
+}
+
+// The format a record belongs to (Tag::Edge2 resolved with `edge2`); nullopt for Tag::Other.
+std::optional<DatasetFormat> recordFormat(Tag tag, DatasetFormat edge2) {
+  switch (tag) {
+    case Tag::VertexSE2:
+    case Tag::EdgeSE2:
+    case Tag::Fix:
+      return DatasetFormat::G2o;
+    case Tag::Vertex2:
+      return DatasetFormat::Toro;
+    case Tag::Odometry:
+      return DatasetFormat::Isam;
+    case Tag::Edge2:
+      return edge2;
+    case Tag::Other:
+      break;
+  }
+  return std::nullopt;
+}
+
+bool hasGraphExtension(const std::string& name) {
+  std::string ext = std::filesystem::path(name).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](char c) {
+    return (c >= 'A' && c <= 'Z') ? static_cast<char>(c - 'A' + 'a') : c;
+  });
+  return ext == ".graph";
+}
+
+Dataset2D parseImpl(std::istream& in, const std::string& name,
+                    std::optional<DatasetFormat> forced) {
+  // Read everything first: the EDGE2 rule looks at the whole file.
+  std::vector<std::string> lines;
+  std::string line;
+  while (std::getline(in, line)) lines.push_back(line);
+  if (in.bad()) throw DatasetError(name, 0, "read error");
+
+  std::vector<Record> records;
+  bool has_vertex2 = false;
+  bool has_comment = false;
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    Record r;
+    r.line = i + 1;
+    r.tokens = tokenize(lines[i]);
+    if (r.tokens.empty()) continue;
+    if (r.tokens[0][0] == '#') {
+      has_comment = true;
+      continue;
+    }
+    r.tag = classify(r.tokens[0]);
+    if (r.tag == Tag::Vertex2) has_vertex2 = true;
+    records.push_back(std::move(r));
+  }
+
+  // EDGE2 resolution (see the header): TORO if the file has VERTEX2 lines, '#' comments or a
+  // ".graph" name, iSAM otherwise; a forced format decides by itself.
+  const bool toro_like = has_vertex2 || has_comment || hasGraphExtension(name);
+  DatasetFormat edge2 = toro_like ? DatasetFormat::Toro : DatasetFormat::Isam;
+  if (forced) edge2 = *forced == DatasetFormat::G2o ? DatasetFormat::G2o : *forced;
+
+  Dataset2D d;
+  d.name = name;
+  d.format = forced ? *forced : (hasGraphExtension(name) ? DatasetFormat::Toro : DatasetFormat::G2o);
+  std::size_t format_line = 0;  // line of the record that fixed the format (0: forced/none yet)
+  bool format_known = forced.has_value();
+
+  std::unordered_map<std::int64_t, std::size_t> vertex_line;  // id -> line of its definition
+  for (const Record& r : records) {
+    if (r.tag == Tag::Other) throw DatasetError(name, r.line, unsupportedReason(r.tokens[0]));
+    DatasetFormat f = *recordFormat(r.tag, edge2);
+    if (forced && r.tag == Tag::Edge2 && *forced == DatasetFormat::G2o) {
+      throw DatasetError(name, r.line, "record 'EDGE2' is not a g2o record (file read as g2o)");
+    }
+    if (!format_known) {
+      d.format = f;
+      format_line = r.line;
+      format_known = true;
+    } else if (f != d.format) {
+      std::string reason = "record '" + std::string(r.tokens[0]) + "' is a " + formatName(f) +
+                           " record, but the file is read as " + formatName(d.format);
+      if (format_line > 0) {
+        reason += " (first " + std::string(formatName(d.format)) + " record at line " +
+                  std::to_string(format_line) + ")";
+      } else {
+        reason += " (format given explicitly)";
+      }
+      throw DatasetError(name, r.line, reason);
+    }
+
+    switch (r.tag) {
+      case Tag::VertexSE2:
+      case Tag::Vertex2: {
+        Vertex2D v = parseVertex(name, r);
+        const auto [it, inserted] = vertex_line.emplace(v.id, v.line);
+        if (!inserted) {
+          throw DatasetError(name, r.line,
+                             std::string(r.tokens[0]) + ": duplicate vertex id " +
+                                 std::to_string(v.id) + " (first defined at line " +
+                                 std::to_string(it->second) + ")");
+        }
+        d.vertices.push_back(v);
+        break;
+      }
+      case Tag::EdgeSE2:
+      case Tag::Edge2:
+      case Tag::Odometry:
+        d.edges.push_back(parseEdge(name, r, f));
+        break;
+      case Tag::Fix: {
+        const FieldParser p(name, r);
+        if (r.tokens.size() < 2) p.fail("FIX: expected at least 2 fields, got 1 (no id)");
+        for (std::size_t k = 1; k < r.tokens.size(); ++k) d.fixed.push_back(p.id(k, "id"));
+        break;
+      }
+      case Tag::Other:
+        break;
+    }
+  }
+  return d;
+}
+
+Dataset2D readImpl(const std::string& path, std::optional<DatasetFormat> forced) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    throw DatasetError(path, 0, "cannot read: is a directory");
+  }
+  std::ifstream in(path, std::ios::in | std::ios::binary);
+  if (!in) {
+    const int err = errno;
+    throw DatasetError(path, 0,
+                       std::string("cannot open file") + (err != 0 ? ": " : "") +
+                           (err != 0 ? std::strerror(err) : ""));
+  }
+  return parseImpl(in, path, forced);
+}
+
+// ---- writer ----
+
+void appendNumber(std::string& out, double v) {
+  std::array<char, 64> buf{};
+  const auto res = std::to_chars(buf.data(), buf.data() + buf.size(), v);  // shortest round trip
+  out.append(buf.data(), res.ptr);
+}
+
+void appendId(std::string& out, std::int64_t v) {
+  out += std::to_string(v);
+}
+
+void checkId(std::int64_t id, const std::string& what) {
+  if (id < 0 || id > kMaxId) {
+    throw std::invalid_argument("writeG2o: " + what + ": id " + std::to_string(id) +
+                                " out of range (0.." + std::to_string(kMaxId) + ")");
+  }
+}
+
+void checkFinite(double v, const std::string& what) {
+  if (!std::isfinite(v)) throw std::invalid_argument("writeG2o: " + what + ": non-finite value");
+}
+
+}  // namespace
+
+const char* formatName(DatasetFormat format) {
+  switch (format) {
+    case DatasetFormat::G2o:
+      return "g2o";
+    case DatasetFormat::Toro:
+      return "TORO";
+    case DatasetFormat::Isam:
+      return "iSAM";
+  }
+  return "unknown";
+}
+
+Dataset2D readDataset2D(const std::string& path) {
+  return readImpl(path, std::nullopt);
+}
+
+Dataset2D readDataset2D(const std::string& path, DatasetFormat format) {
+  return readImpl(path, format);
+}
+
+Dataset2D parseDataset2D(std::istream& in, const std::string& name) {
+  return parseImpl(in, name, std::nullopt);
+}
+
+Dataset2D parseDataset2D(std::istream& in, const std::string& name, DatasetFormat format) {
+  return parseImpl(in, name, format);
+}
+
+void writeG2o(std::ostream& out, const std::vector<Vertex2D>& vertices,
+              const std::vector<Edge2D>& edges, const std::vector<std::int64_t>& fixed) {
+  // Validate everything first so that nothing is written for bad input.
+  for (std::size_t k = 0; k < vertices.size(); ++k) {
+    const Vertex2D& v = vertices[k];
+    const std::string what = "vertex #" + std::to_string(k) + " (id " + std::to_string(v.id) + ")";
+    checkId(v.id, what);
+    checkFinite(v.pose.x, what);
+    checkFinite(v.pose.y, what);
+    checkFinite(v.pose.theta, what);
+  }
+  for (std::size_t k = 0; k < edges.size(); ++k) {
+    const Edge2D& e = edges[k];
+    const std::string what = "edge #" + std::to_string(k) + " (" + std::to_string(e.from) + "->" +
+                             std::to_string(e.to) + ")";
+    checkId(e.from, what);
+    checkId(e.to, what);
+    if (e.from == e.to) throw std::invalid_argument("writeG2o: " + what + ": from == to");
+    checkFinite(e.measurement.x, what);
+    checkFinite(e.measurement.y, what);
+    checkFinite(e.measurement.theta, what);
+    if (!e.information.allFinite()) {
+      throw std::invalid_argument("writeG2o: " + what + ": non-finite information");
+    }
+  }
+  for (std::int64_t id : fixed) checkId(id, "FIX");
+
+  std::string buf;
+  buf.reserve(128);
+  for (const Vertex2D& v : vertices) {
+    buf = "VERTEX_SE2 ";
+    appendId(buf, v.id);
+    for (double x : {v.pose.x, v.pose.y, v.pose.theta}) {
+      buf += ' ';
+      appendNumber(buf, x);
+    }
+    buf += '\n';
+    out.write(buf.data(), static_cast<std::streamsize>(buf.size()));
+  }
+  for (std::int64_t id : fixed) {
+    buf = "FIX ";
+    appendId(buf, id);
+    buf += '\n';
+    out.write(buf.data(), static_cast<std::streamsize>(buf.size()));
+  }
+  for (const Edge2D& e : edges) {
+    buf = "EDGE_SE2 ";
+    appendId(buf, e.from);
+    buf += ' ';
+    appendId(buf, e.to);
+    const Eigen::Matrix3d& m = e.information;
+    for (double x : {e.measurement.x, e.measurement.y, e.measurement.theta, m(0, 0), m(0, 1),
+                     m(0, 2), m(1, 1), m(1, 2), m(2, 2)}) {
+      buf += ' ';
+      appendNumber(buf, x);
+    }
+    buf += '\n';
+    out.write(buf.data(), static_cast<std::streamsize>(buf.size()));
+  }
+  if (!out) throw std::runtime_error("writeG2o: stream write failed");
+}
+
+void writeG2o(std::ostream& out, const Dataset2D& dataset) {
+  writeG2o(out, dataset.vertices, dataset.edges, dataset.fixed);
+}
+
+void writeG2oFile(const std::string& path, const Dataset2D& dataset) {
+  std::ofstream out(path, std::ios::out | std::ios::binary | std::ios::trunc);
+  if (!out) throw std::runtime_error("writeG2oFile: cannot open '" + path + "' for writing");
+  writeG2o(out, dataset);
+  out.flush();
+  if (!out) throw std::runtime_error("writeG2oFile: write to '" + path + "' failed");
+}
+
+}  // namespace lslam::sim

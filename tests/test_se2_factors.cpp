@@ -1,0 +1,262 @@
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include "lslam/factors/information.h"
+#include "lslam/factors/se2_factors.h"
+#include "lslam/geometry/se2.h"
+#include "lslam/status.h"
+#include "numerical_diff.h"
+
+using lslam::betweenErrorSE2;
+using lslam::checkInformation;
+using lslam::Mat2;
+using lslam::Mat3;
+using lslam::priorErrorSE2;
+using lslam::SE2;
+using lslam::Status;
+using lslam::Vec3;
+using namespace lslam::test;
+
+namespace doctest {
+template <>
+struct StringMaker<Status> {
+  static String convert(Status status) { return lslam::toString(status); }
+};
+}  // namespace doctest
+
+namespace {
+
+using Mat6 = Eigen::Matrix<double, 6, 6>;
+
+constexpr int kCases = 900;
+constexpr unsigned kSeed = 77031u;
+
+// The g2o error of a residual pose given as a homogeneous matrix: (x, y, theta), not Log.
+Vec3 referenceError(const Mat3& residual) {
+  return Vec3(residual(0, 2), residual(1, 2), std::atan2(residual(1, 0), residual(0, 0)));
+}
+
+// Errors compared with the angle taken modulo 2 pi, so pi and -pi + 1e-17 count as equal.
+double errorDistance(const Vec3& a, const Vec3& b) {
+  const double angle = std::abs(std::remainder(a(2) - b(2), 2.0 * kPi));
+  return std::max((a.head<2>() - b.head<2>()).cwiseAbs().maxCoeff(), angle);
+}
+
+bool nearCut(double angle) {
+  return std::abs(angle) > kPi - 1e-4;
+}
+
+}  // namespace
+
+#define CHECK_JACOBIAN(analytic, numeric)                             \
+  do {                                                                \
+    INFO("analytic:\n" << (analytic) << "\nnumeric:\n" << (numeric)); \
+    CHECK(jacobianNear((analytic), (numeric)));                       \
+  } while (false)
+
+TEST_CASE("betweenErrorSE2 is the g2o error of z^-1 * xi^-1 * xj") {
+  std::mt19937 rng(kSeed);
+  for (int i = 0; i < kCases; ++i) {
+    const SE2 xi = randomPose(rng, i);
+    const SE2 xj = randomPose(rng, i + 2);
+    const SE2 z = randomPose(rng, i + 5);
+    CAPTURE(i);
+    const Vec3 e = betweenErrorSE2(xi, xj, z);
+    const Mat3 residual = toMatrix(z).inverse() * toMatrix(xi).inverse() * toMatrix(xj);
+    CHECK(errorDistance(e, referenceError(residual)) < 1e-12);
+    CHECK(e(2) > -kPi);
+    CHECK(e(2) <= kPi);
+
+    // A measurement that agrees with the poses leaves no error.
+    const SE2 exact = fromMatrix(toMatrix(xi).inverse() * toMatrix(xj));
+    CHECK(betweenErrorSE2(xi, xj, exact).cwiseAbs().maxCoeff() < 1e-12);
+  }
+}
+
+TEST_CASE("betweenErrorSE2 on a case worked by hand") {
+  // xi faces +y; xj is one metre ahead of it and turned 0.1 rad further left. The measurement
+  // says "0.9 m ahead, 0.5 m to the left, no turn".
+  const SE2 xi(1.0, 2.0, 0.5 * kPi);
+  const SE2 xj(1.0, 3.0, 0.5 * kPi + 0.1);
+  const SE2 z(0.9, 0.5, 0.0);
+  const Vec3 e = betweenErrorSE2(xi, xj, z);
+  CHECK(e(0) == doctest::Approx(0.1).epsilon(1e-12));
+  CHECK(e(1) == doctest::Approx(-0.5).epsilon(1e-12));
+  CHECK(e(2) == doctest::Approx(0.1).epsilon(1e-12));
+
+  // Rotated measurement: the error is expressed in the measured frame.
+  const SE2 zr(1.0, 0.0, 0.5 * kPi);
+  const Vec3 er = betweenErrorSE2(xi, xj, zr);
+  CHECK(std::abs(er(0)) < 1e-12);
+  CHECK(std::abs(er(1)) < 1e-12);
+  CHECK(er(2) == doctest::Approx(0.1 - 0.5 * kPi).epsilon(1e-12));
+}
+
+TEST_CASE("the error is the g2o vector, not the Lie logarithm") {
+  const SE2 xi(0.0, 0.0, 0.0);
+  const SE2 xj(2.0, 1.0, 0.8);
+  const SE2 z;  // identity: the residual is xj itself
+  const Vec3 e = betweenErrorSE2(xi, xj, z);
+  CHECK(e(0) == doctest::Approx(2.0).epsilon(1e-15));
+  CHECK(e(1) == doctest::Approx(1.0).epsilon(1e-15));
+  CHECK(e(2) == doctest::Approx(0.8).epsilon(1e-15));
+  const Vec3 lie = logMatrix(toMatrix(xj));
+  CHECK(std::abs(lie(0) - e(0)) > 0.1);  // the two conventions really differ here
+}
+
+TEST_CASE("the angle error wraps across pi") {
+  const SE2 xi(0.0, 0.0, 3.0);
+  const SE2 xj(0.0, 0.0, -3.0);  // 2 pi - 6 = 0.283 rad further left, across the cut
+  const Vec3 e = betweenErrorSE2(xi, xj, SE2());
+  CHECK(e(2) == doctest::Approx(2.0 * kPi - 6.0).epsilon(1e-14));
+  const Vec3 p = priorErrorSE2(xj, xi);
+  CHECK(p(2) == doctest::Approx(2.0 * kPi - 6.0).epsilon(1e-14));
+}
+
+TEST_CASE("priorErrorSE2 is the g2o error of z^-1 * x") {
+  std::mt19937 rng(kSeed + 1);
+  for (int i = 0; i < kCases; ++i) {
+    const SE2 x = randomPose(rng, i);
+    const SE2 z = randomPose(rng, i + 4);
+    CAPTURE(i);
+    const Vec3 e = priorErrorSE2(x, z);
+    CHECK(errorDistance(e, referenceError(toMatrix(z).inverse() * toMatrix(x))) < 1e-12);
+    CHECK(e(2) > -kPi);
+    CHECK(e(2) <= kPi);
+    CHECK(priorErrorSE2(x, x).cwiseAbs().maxCoeff() == 0.0);
+    // A prior is a between factor from the origin.
+    CHECK(errorDistance(e, betweenErrorSE2(SE2(), x, z)) < 1e-12);
+  }
+}
+
+TEST_CASE("betweenErrorSE2 Jacobians match central differences") {
+  std::mt19937 rng(kSeed + 2);
+  int checked = 0;
+  for (int i = 0; i < kCases; ++i) {
+    const SE2 xi = randomPose(rng, i);
+    const SE2 xj = randomPose(rng, i + 3);
+    // Half of the measurements near the truth, as in a converging solve.
+    const SE2 z = i % 2 == 0 ? fromMatrix(toMatrix(xi).inverse() * toMatrix(xj) *
+                                          expMatrix(0.1 * randomTangent(rng, i)))
+                             : randomPose(rng, i + 6);
+    CAPTURE(i);
+    Mat3 J_e_xi;
+    Mat3 J_e_xj;
+    const Vec3 e = betweenErrorSE2(xi, xj, z, &J_e_xi, &J_e_xj);
+    CHECK(maxAbsDiff(e, betweenErrorSE2(xi, xj, z)) == 0.0);
+    if (nearCut(e(2))) continue;  // the wrapped angle jumps by 2 pi there
+    ++checked;
+    CHECK_JACOBIAN(
+        J_e_xi,
+        numericalJacobianSE2([&](const SE2& x) -> Vec3 { return betweenErrorSE2(x, xj, z); }, xi));
+    CHECK_JACOBIAN(
+        J_e_xj,
+        numericalJacobianSE2([&](const SE2& x) -> Vec3 { return betweenErrorSE2(xi, x, z); }, xj));
+  }
+  CHECK(checked > kCases / 2);
+}
+
+TEST_CASE("priorErrorSE2 Jacobian matches central differences") {
+  std::mt19937 rng(kSeed + 3);
+  int checked = 0;
+  for (int i = 0; i < kCases; ++i) {
+    const SE2 x = randomPose(rng, i);
+    const SE2 z = i % 2 == 0 ? fromMatrix(toMatrix(x) * expMatrix(0.1 * randomTangent(rng, i)))
+                             : randomPose(rng, i + 5);
+    CAPTURE(i);
+    Mat3 J_e_x;
+    const Vec3 e = priorErrorSE2(x, z, &J_e_x);
+    CHECK(maxAbsDiff(e, priorErrorSE2(x, z)) == 0.0);
+    if (nearCut(e(2))) continue;
+    ++checked;
+    CHECK_JACOBIAN(
+        J_e_x, numericalJacobianSE2([&](const SE2& p) -> Vec3 { return priorErrorSE2(p, z); }, x));
+  }
+  CHECK(checked > kCases / 2);
+}
+
+TEST_CASE("checkInformation accepts symmetric positive definite matrices") {
+  std::mt19937 rng(kSeed + 4);
+  std::uniform_real_distribution<double> entry(-1.0, 1.0);
+  for (int i = 0; i < 200; ++i) {
+    Mat3 a;
+    for (int k = 0; k < 9; ++k) a(k) = entry(rng);
+    const double scale = std::pow(10.0, (i % 13) - 6);  // 1e-6 .. 1e6
+    const Mat3 information = scale * (a * a.transpose() + 0.1 * Mat3::Identity());
+    CAPTURE(i);
+    CHECK(checkInformation(information) == Status::Ok);
+  }
+  CHECK(checkInformation(Mat3::Identity()) == Status::Ok);
+  Mat3 typical = Mat3::Zero();
+  typical.diagonal() << 500.0, 500.0, 5000.0;  // a typical g2o odometry information
+  CHECK(checkInformation(typical) == Status::Ok);
+  CHECK(checkInformation(Mat2::Identity()) == Status::Ok);
+  CHECK(checkInformation(Mat6::Identity()) == Status::Ok);
+
+  // Asymmetry from rounding, far below the relative tolerance, is accepted.
+  Mat3 rounded = 1e8 * Mat3::Identity();
+  rounded(0, 1) = 1e-3;
+  rounded(1, 0) = 1e-3 + 1e-6;
+  CHECK(checkInformation(rounded) == Status::Ok);
+}
+
+TEST_CASE("checkInformation rejects non-symmetric, indefinite, zero and singular matrices") {
+  Mat3 asymmetric = Mat3::Identity();
+  asymmetric(0, 2) = 0.1;
+  CHECK(checkInformation(asymmetric) == Status::InformationNotPositiveDefinite);
+  // Just above the 1e-9 relative tolerance, on a large matrix.
+  Mat3 barely = 1e6 * Mat3::Identity();
+  barely(2, 1) = 1.0;
+  barely(1, 2) = 1.0 + 2e-3;
+  CHECK(checkInformation(barely) == Status::InformationNotPositiveDefinite);
+
+  Mat3 indefinite = Mat3::Identity();
+  indefinite(1, 1) = -1.0;
+  CHECK(checkInformation(indefinite) == Status::InformationNotPositiveDefinite);
+  CHECK(checkInformation(Mat3(-Mat3::Identity())) == Status::InformationNotPositiveDefinite);
+  Mat3 coupled;  // positive diagonal, but the off-diagonal coupling makes it indefinite
+  coupled << 1.0, 2.0, 0.0, 2.0, 1.0, 0.0, 0.0, 0.0, 1.0;
+  CHECK(checkInformation(coupled) == Status::InformationNotPositiveDefinite);
+
+  CHECK(checkInformation(Mat3::Zero()) == Status::InformationNotPositiveDefinite);
+  Mat3 singular = Mat3::Identity();
+  singular(2, 2) = 0.0;
+  CHECK(checkInformation(singular) == Status::InformationNotPositiveDefinite);
+  Mat3 rank_one = Vec3(1.0, 2.0, 3.0) * Vec3(1.0, 2.0, 3.0).transpose();
+  CHECK(checkInformation(rank_one) == Status::InformationNotPositiveDefinite);
+
+  Mat2 asymmetric2 = Mat2::Identity();
+  asymmetric2(1, 0) = 0.5;
+  CHECK(checkInformation(asymmetric2) == Status::InformationNotPositiveDefinite);
+  CHECK(checkInformation(Mat2(-Mat2::Identity())) == Status::InformationNotPositiveDefinite);
+  Mat6 indefinite6 = Mat6::Identity();
+  indefinite6(5, 5) = -1e-3;
+  CHECK(checkInformation(indefinite6) == Status::InformationNotPositiveDefinite);
+}
+
+TEST_CASE("checkInformation reports NaN and Inf in any entry as non-finite input") {
+  const double bad[] = {std::numeric_limits<double>::quiet_NaN(),
+                        std::numeric_limits<double>::infinity(),
+                        -std::numeric_limits<double>::infinity()};
+  for (double value : bad) {
+    for (int k = 0; k < 9; ++k) {
+      Mat3 information = Mat3::Identity();
+      information(k) = value;
+      CAPTURE(k);
+      CHECK(checkInformation(information) == Status::NonFiniteInput);
+    }
+    Mat3 symmetric_bad = Mat3::Identity();  // non-finite wins over any other complaint
+    symmetric_bad(0, 1) = value;
+    symmetric_bad(1, 0) = value;
+    CHECK(checkInformation(symmetric_bad) == Status::NonFiniteInput);
+    Mat2 information2 = Mat2::Identity();
+    information2(1, 1) = value;
+    CHECK(checkInformation(information2) == Status::NonFiniteInput);
+    Mat6 information6 = Mat6::Identity();
+    information6(4, 2) = value;
+    CHECK(checkInformation(information6) == Status::NonFiniteInput);
+  }
+}
