@@ -24,9 +24,13 @@ class DenseSource final : public lslam::InformationSource<3> {
     Eigen::MatrixXd grown = Eigen::MatrixXd::Zero(3 * (n + 1), 3 * (n + 1));
     grown.topLeftCorner(3 * n, 3 * n) = lambda;
     lambda = grown;
+    grown.topLeftCorner(3 * n, 3 * n) = committed_lambda;
+    committed_lambda = grown;
     Eigen::VectorXd eta_grown = Eigen::VectorXd::Zero(3 * (n + 1));
     eta_grown.head(3 * n) = eta;
     eta = eta_grown;
+    eta_grown.head(3 * n) = committed_eta;
+    committed_eta = eta_grown;
     neighbours.emplace_back();
   }
   // Adds J^T J for a random 3x6 J on variables (a, b): positive semidefinite, like a factor.
@@ -60,8 +64,22 @@ class DenseSource final : public lslam::InformationSource<3> {
       if (position[u] > position[v]) acc.addBelow(position[u], lambda.block<3, 3>(3 * u, 3 * v));
   }
 
-  Eigen::MatrixXd lambda;
-  Eigen::VectorXd eta;
+  void assembleColumnChange(Index v, const Index* position,
+                            lslam::ColumnAccumulator<3>& acc) const override {
+    acc.addDiagonal(lambda.block<3, 3>(3 * v, 3 * v) - committed_lambda.block<3, 3>(3 * v, 3 * v));
+    acc.addEta(eta.segment<3>(3 * v) - committed_eta.segment<3>(3 * v));
+    for (Index u : neighbours[v])
+      if (position[u] > position[v])
+        acc.addBelow(position[u], lambda.block<3, 3>(3 * u, 3 * v) -
+                                      committed_lambda.block<3, 3>(3 * u, 3 * v));
+  }
+  void commit() {
+    committed_lambda = lambda;
+    committed_eta = eta;
+  }
+
+  Eigen::MatrixXd lambda, committed_lambda;
+  Eigen::VectorXd eta, committed_eta;
   std::vector<std::set<Index>> neighbours;
 };
 
@@ -128,6 +146,7 @@ struct Harness {
     const lslam::Status s = chol.factorize(source, variable_at.data(), position_of.data());
     if (s == lslam::Status::Ok) {
       chol.commit();
+      source.commit();
     } else {
       chol.rollback();
     }
@@ -202,6 +221,7 @@ TEST_CASE("full refactorization under a new ordering equals dense LLT of the per
     REQUIRE(h->chol.factorize(h->source, h->variable_at.data(), h->position_of.data()) ==
             lslam::Status::Ok);
     h->chol.commit();
+    h->source.commit();
     checkAgainstDense(h->chol, h->source, h->variable_at);
     // Compaction keeps every value.
     const Eigen::MatrixXd before = denseFactor(h->chol);

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <string>
 
 #include "lslam/factors/information.h"
 #include "lslam/factors/se2_factors.h"
@@ -20,13 +21,6 @@ using lslam::Status;
 using lslam::Vec3;
 using namespace lslam::test;
 
-namespace doctest {
-template <>
-struct StringMaker<Status> {
-  static String convert(Status status) { return lslam::toString(status); }
-};
-}  // namespace doctest
-
 namespace {
 
 using Mat6 = Eigen::Matrix<double, 6, 6>;
@@ -43,6 +37,12 @@ Vec3 referenceError(const Mat3& residual) {
 double errorDistance(const Vec3& a, const Vec3& b) {
   const double angle = std::abs(std::remainder(a(2) - b(2), 2.0 * kPi));
   return std::max((a.head<2>() - b.head<2>()).cwiseAbs().maxCoeff(), angle);
+}
+
+// Statuses are compared by name: readable on failure, and doctest cannot stringify the enum
+// itself (its unqualified toString() call finds lslam::toString by argument-dependent lookup).
+std::string name(Status status) {
+  return lslam::toString(status);
 }
 
 bool nearCut(double angle) {
@@ -187,54 +187,56 @@ TEST_CASE("checkInformation accepts symmetric positive definite matrices") {
     const double scale = std::pow(10.0, (i % 13) - 6);  // 1e-6 .. 1e6
     const Mat3 information = scale * (a * a.transpose() + 0.1 * Mat3::Identity());
     CAPTURE(i);
-    CHECK(checkInformation(information) == Status::Ok);
+    CHECK(name(checkInformation(information)) == name(Status::Ok));
   }
-  CHECK(checkInformation(Mat3::Identity()) == Status::Ok);
+  CHECK(name(checkInformation(Mat3::Identity())) == name(Status::Ok));
   Mat3 typical = Mat3::Zero();
   typical.diagonal() << 500.0, 500.0, 5000.0;  // a typical g2o odometry information
-  CHECK(checkInformation(typical) == Status::Ok);
-  CHECK(checkInformation(Mat2::Identity()) == Status::Ok);
-  CHECK(checkInformation(Mat6::Identity()) == Status::Ok);
+  CHECK(name(checkInformation(typical)) == name(Status::Ok));
+  CHECK(name(checkInformation(Mat2::Identity())) == name(Status::Ok));
+  CHECK(name(checkInformation(Mat6::Identity())) == name(Status::Ok));
 
   // Asymmetry from rounding, far below the relative tolerance, is accepted.
   Mat3 rounded = 1e8 * Mat3::Identity();
   rounded(0, 1) = 1e-3;
   rounded(1, 0) = 1e-3 + 1e-6;
-  CHECK(checkInformation(rounded) == Status::Ok);
+  CHECK(name(checkInformation(rounded)) == name(Status::Ok));
 }
 
 TEST_CASE("checkInformation rejects non-symmetric, indefinite, zero and singular matrices") {
   Mat3 asymmetric = Mat3::Identity();
   asymmetric(0, 2) = 0.1;
-  CHECK(checkInformation(asymmetric) == Status::InformationNotPositiveDefinite);
+  CHECK(name(checkInformation(asymmetric)) == name(Status::InformationNotPositiveDefinite));
   // Just above the 1e-9 relative tolerance, on a large matrix.
   Mat3 barely = 1e6 * Mat3::Identity();
   barely(2, 1) = 1.0;
   barely(1, 2) = 1.0 + 2e-3;
-  CHECK(checkInformation(barely) == Status::InformationNotPositiveDefinite);
+  CHECK(name(checkInformation(barely)) == name(Status::InformationNotPositiveDefinite));
 
   Mat3 indefinite = Mat3::Identity();
   indefinite(1, 1) = -1.0;
-  CHECK(checkInformation(indefinite) == Status::InformationNotPositiveDefinite);
-  CHECK(checkInformation(Mat3(-Mat3::Identity())) == Status::InformationNotPositiveDefinite);
+  CHECK(name(checkInformation(indefinite)) == name(Status::InformationNotPositiveDefinite));
+  CHECK(name(checkInformation(Mat3(-Mat3::Identity()))) ==
+        name(Status::InformationNotPositiveDefinite));
   Mat3 coupled;  // positive diagonal, but the off-diagonal coupling makes it indefinite
   coupled << 1.0, 2.0, 0.0, 2.0, 1.0, 0.0, 0.0, 0.0, 1.0;
-  CHECK(checkInformation(coupled) == Status::InformationNotPositiveDefinite);
+  CHECK(name(checkInformation(coupled)) == name(Status::InformationNotPositiveDefinite));
 
-  CHECK(checkInformation(Mat3::Zero()) == Status::InformationNotPositiveDefinite);
+  CHECK(name(checkInformation(Mat3::Zero())) == name(Status::InformationNotPositiveDefinite));
   Mat3 singular = Mat3::Identity();
   singular(2, 2) = 0.0;
-  CHECK(checkInformation(singular) == Status::InformationNotPositiveDefinite);
+  CHECK(name(checkInformation(singular)) == name(Status::InformationNotPositiveDefinite));
   Mat3 rank_one = Vec3(1.0, 2.0, 3.0) * Vec3(1.0, 2.0, 3.0).transpose();
-  CHECK(checkInformation(rank_one) == Status::InformationNotPositiveDefinite);
+  CHECK(name(checkInformation(rank_one)) == name(Status::InformationNotPositiveDefinite));
 
   Mat2 asymmetric2 = Mat2::Identity();
   asymmetric2(1, 0) = 0.5;
-  CHECK(checkInformation(asymmetric2) == Status::InformationNotPositiveDefinite);
-  CHECK(checkInformation(Mat2(-Mat2::Identity())) == Status::InformationNotPositiveDefinite);
+  CHECK(name(checkInformation(asymmetric2)) == name(Status::InformationNotPositiveDefinite));
+  CHECK(name(checkInformation(Mat2(-Mat2::Identity()))) ==
+        name(Status::InformationNotPositiveDefinite));
   Mat6 indefinite6 = Mat6::Identity();
   indefinite6(5, 5) = -1e-3;
-  CHECK(checkInformation(indefinite6) == Status::InformationNotPositiveDefinite);
+  CHECK(name(checkInformation(indefinite6)) == name(Status::InformationNotPositiveDefinite));
 }
 
 TEST_CASE("checkInformation reports NaN and Inf in any entry as non-finite input") {
@@ -246,17 +248,17 @@ TEST_CASE("checkInformation reports NaN and Inf in any entry as non-finite input
       Mat3 information = Mat3::Identity();
       information(k) = value;
       CAPTURE(k);
-      CHECK(checkInformation(information) == Status::NonFiniteInput);
+      CHECK(name(checkInformation(information)) == name(Status::NonFiniteInput));
     }
     Mat3 symmetric_bad = Mat3::Identity();  // non-finite wins over any other complaint
     symmetric_bad(0, 1) = value;
     symmetric_bad(1, 0) = value;
-    CHECK(checkInformation(symmetric_bad) == Status::NonFiniteInput);
+    CHECK(name(checkInformation(symmetric_bad)) == name(Status::NonFiniteInput));
     Mat2 information2 = Mat2::Identity();
     information2(1, 1) = value;
-    CHECK(checkInformation(information2) == Status::NonFiniteInput);
+    CHECK(name(checkInformation(information2)) == name(Status::NonFiniteInput));
     Mat6 information6 = Mat6::Identity();
     information6(4, 2) = value;
-    CHECK(checkInformation(information6) == Status::NonFiniteInput);
+    CHECK(name(checkInformation(information6)) == name(Status::NonFiniteInput));
   }
 }

@@ -34,8 +34,9 @@ class RowsAfterCollector final : public NeighbourVisitor {
 // Lower Cholesky factor of a small SPD block, inverted: returns false on a pivot that is not
 // positive and finite (never clamped: a bad pivot means the problem is not positive definite).
 template <int D>
-bool invertedCholesky(const Eigen::Matrix<double, D, D>& a, Eigen::Matrix<double, D, D>& l_inv) {
-  Eigen::Matrix<double, D, D> l = Eigen::Matrix<double, D, D>::Zero();
+bool invertedCholesky(const Eigen::Matrix<double, D, D>& a, Eigen::Matrix<double, D, D>& l,
+                      Eigen::Matrix<double, D, D>& l_inv) {
+  l.setZero();
   for (int j = 0; j < D; ++j) {
     double pivot = a(j, j);
     for (int p = 0; p < j; ++p) pivot -= l(j, p) * l(j, p);
@@ -175,10 +176,21 @@ Status IncrementalCholesky<D>::factorize(const InformationSource<D>& source,
     const Status s = buildStructure(k, source, variable_at, position_of);
     if (s != Status::Ok) return s;
   }
-  // Numeric, left-looking, in the same order: every column a column needs is final by then.
+  // Numeric, right-looking over the affected columns only: each starts from its old value plus
+  // the change of Lambda, and receives the new-minus-old contributions of the affected columns
+  // below it before it is factorized.
   for (Index i = 0; i < affected_count_; ++i) {
-    const Status s = computeColumn(a_.affected[i], source, variable_at, position_of);
+    startColumn(a_.affected[i], source, variable_at, position_of);
+  }
+  for (Index i = 0; i < affected_count_; ++i) {
+    const Index k = a_.affected[i];
+    const Status s = finishColumn(k);
     if (s != Status::Ok) return s;
+    scatter(a_.rows + a_.staged_start[k], a_.blocks + a_.staged_start[k], a_.staged_count[k],
+            a_.staged_d[k], -1.0);
+    if (!full_ && k < n_) {
+      scatter(a_.rows + a_.start[k], a_.blocks + a_.start[k], a_.count[k], a_.d[k], 1.0);
+    }
   }
   stats_.columns_recomputed = affected_count_;
   stats_.blocks_written = pool_end_ - pool_mark_;
@@ -230,44 +242,9 @@ Status IncrementalCholesky<D>::buildStructure(Index k, const InformationSource<D
   return Status::Ok;
 }
 
-namespace {
-
-// Collects the row subtree of column k (the columns j < k with L(k, j) != 0): from every j with
-// Lambda(k, j) != 0, walk up the elimination tree until a column already seen (or k itself).
-template <int D, typename ParentFn>
-class RowSubtreeCollector final : public NeighbourVisitor {
- public:
-  RowSubtreeCollector(const Index* position_of, Index k, std::uint32_t* mark, std::uint32_t id,
-                      Index* out, ParentFn parent)
-      : position_of_(position_of), k_(k), mark_(mark), id_(id), out_(out), parent_(parent) {
-    mark_[k] = id;
-  }
-  void visit(Index variable) override {
-    // The walk always ends at k (k is in the structure of every column it passes); the
-    // kNoIndex test only guards against a corrupted tree.
-    for (Index j = position_of_[variable]; j != kNoIndex && j < k_ && mark_[j] != id_;
-         j = parent_(j)) {
-      mark_[j] = id_;
-      out_[count_++] = j;
-    }
-  }
-  Index count() const { return count_; }
-
- private:
-  const Index* position_of_;
-  Index k_;
-  std::uint32_t* mark_;
-  std::uint32_t id_;
-  Index* out_;
-  ParentFn parent_;
-  Index count_ = 0;
-};
-
-}  // namespace
-
 template <int D>
-Status IncrementalCholesky<D>::computeColumn(Index k, const InformationSource<D>& source,
-                                             const Index* variable_at, const Index* position_of) {
+void IncrementalCholesky<D>::startColumn(Index k, const InformationSource<D>& source,
+                                         const Index* variable_at, const Index* position_of) {
   const Index start = a_.staged_start[k];
   const Index size = a_.staged_count[k];
   const Index* rows = a_.rows + start;
@@ -276,41 +253,66 @@ Status IncrementalCholesky<D>::computeColumn(Index k, const InformationSource<D>
     a_.slot[rows[i]] = i;
     blocks[i].setZero();
   }
-  Vector eta = Vector::Zero();
-  ColumnAccumulator<D> acc(blocks, a_.slot, &eta);
-  source.assembleColumn(variable_at[k], position_of, acc);
-
-  const std::uint32_t id = nextMark();
-  auto parent_of = [this](Index j) { return stagedParent(j); };
-  RowSubtreeCollector<D, decltype(parent_of)> subtree(position_of, k, a_.mark, id, a_.row_list,
-                                                      parent_of);
-  source.visitNeighbours(variable_at[k], subtree);
-
-  // Left-looking: column k -= L(k:, j) L(k, j)^T for every j in the row subtree.
-  for (Index t = 0; t < subtree.count(); ++t) {
-    const Index j = a_.row_list[t];
-    const Index* jrows;
-    const Block* jblocks;
-    Index jsize;
-    stagedOrCommitted(j, jrows, jblocks, jsize);
-    const Index at = static_cast<Index>(std::lower_bound(jrows + 1, jrows + jsize, k) - jrows);
-    LSLAM_DEBUG_ASSERT(at < jsize && jrows[at] == k);
-    const Block l_kj_t = jblocks[at].transpose();
-    eta.noalias() -= jblocks[at] * (isAffected(j) ? a_.staged_d[j] : a_.d[j]);
-    blocks[0].noalias() -= jblocks[at] * l_kj_t;
-    for (Index i = at + 1; i < jsize; ++i) {
-      blocks[a_.slot[jrows[i]]].noalias() -= jblocks[i] * l_kj_t;
-    }
-    stats_.block_products += jsize - at;
+  Vector& e = a_.staged_d[k];
+  e.setZero();
+  if (!full_ && k < n_) {
+    // C_old(:,k) = L_old(:,k) L_old(k,k)^T and e_old = L_old(k,k) d_old: the column as it was
+    // before its pivot, on the old structure (a subset of the new one).
+    const Block& l = a_.diagonal[k];
+    const Block l_t = l.transpose();
+    const Index* old_rows = a_.rows + a_.start[k];
+    const Block* old_blocks = a_.blocks + a_.start[k];
+    blocks[0].noalias() = l * l_t;
+    for (Index i = 1; i < a_.count[k]; ++i)
+      blocks[a_.slot[old_rows[i]]].noalias() = old_blocks[i] * l_t;
+    e.noalias() = l * a_.d[k];
   }
+  ColumnAccumulator<D> acc(blocks, a_.slot, &e);
+  if (full_) {
+    source.assembleColumn(variable_at[k], position_of, acc);
+  } else {
+    source.assembleColumnChange(variable_at[k], position_of, acc);
+  }
+}
 
+template <int D>
+Status IncrementalCholesky<D>::finishColumn(Index k) {
+  const Index size = a_.staged_count[k];
+  Block* blocks = a_.blocks + a_.staged_start[k];
+  Block l;
   Block l_inv;
-  if (!invertedCholesky<D>(blocks[0], l_inv)) return Status::NotPositiveDefinite;
+  if (!invertedCholesky<D>(blocks[0], l, l_inv)) return Status::NotPositiveDefinite;
+  a_.staged_diagonal[k] = l;
   blocks[0] = l_inv;
   const Block l_inv_t = l_inv.transpose();
   for (Index i = 1; i < size; ++i) blocks[i] = (blocks[i] * l_inv_t).eval();
-  a_.staged_d[k].noalias() = l_inv * eta;
+  a_.staged_d[k] = (l_inv * a_.staged_d[k]).eval();
   return Status::Ok;
+}
+
+// Sends column k's contribution -/+ L(r,k) L(s,k)^T (and -/+ L(s,k) d(k)) to every column s of its
+// structure: sign -1 for the new column, +1 to take back the old one. Every target is staged.
+template <int D>
+void IncrementalCholesky<D>::scatter(const Index* rows, const Block* blocks, Index size,
+                                     const Vector& d, double sign) {
+  for (Index a = 1; a < size; ++a) {
+    const Index s = rows[a];
+    const Index* target_rows = a_.rows + a_.staged_start[s];
+    Block* target = a_.blocks + a_.staged_start[s];
+    const Index target_size = a_.staged_count[s];
+    const Block l_sk_t = sign * blocks[a].transpose();
+    a_.staged_d[s].noalias() += l_sk_t.transpose() * d;
+    target[0].noalias() += blocks[a] * l_sk_t;
+    // rows[a+1..] is a subset of the target's rows, both ascending: merge.
+    Index p = 1;
+    for (Index b = a + 1; b < size; ++b) {
+      while (target_rows[p] < rows[b]) ++p;
+      LSLAM_DEBUG_ASSERT(p < target_size && target_rows[p] == rows[b]);
+      target[p].noalias() += blocks[b] * l_sk_t;
+    }
+    static_cast<void>(target_size);
+    stats_.block_products += size - a;
+  }
 }
 
 template <int D>
@@ -328,6 +330,7 @@ void IncrementalCholesky<D>::commit() {
     a_.count[k] = a_.staged_count[k];
     live_blocks_ += a_.count[k];
     a_.d[k] = a_.staged_d[k];
+    a_.diagonal[k] = a_.staged_diagonal[k];
     a_.needs_solve[k] = 1;
     if (!full_) {
       const Index new_parent = parent(k);

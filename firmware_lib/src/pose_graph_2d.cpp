@@ -123,35 +123,58 @@ void PoseGraph2D::visitNeighbours(Index variable, NeighbourVisitor& visitor) con
   }
 }
 
+void PoseGraph2D::addContribution(Index f, Index variable, const Index* position, bool committed,
+                                  double sign, ColumnAccumulator<3>& acc) const {
+  auto point = [&](Index v) -> const SE2& {
+    return committed ? a_.linearization[v] : linearizationPoint(v);
+  };
+  const Mat3 omega = sign * a_.information[f];
+  if (a_.kind[f] == FactorKind::PriorSE2) {
+    Mat3 j;
+    const Vec3 err = priorErrorSE2(point(variable), a_.measurement[f], &j);
+    const Mat3 jt_omega = j.transpose() * omega;
+    acc.addDiagonal(jt_omega * j);
+    acc.addEta(-(jt_omega * err));
+    return;
+  }
+  const Index i = a_.first_variable[f];
+  const Index k = a_.second_variable[f];
+  Mat3 j_i;
+  Mat3 j_k;
+  const Vec3 err = betweenErrorSE2(point(i), point(k), a_.measurement[f], &j_i, &j_k);
+  const bool is_first = (i == variable);
+  const Mat3& j_self = is_first ? j_i : j_k;
+  const Mat3& j_other = is_first ? j_k : j_i;
+  const Index other = is_first ? k : i;
+  const Mat3 omega_j_self = omega * j_self;
+  acc.addDiagonal(j_self.transpose() * omega_j_self);
+  acc.addEta(-(j_self.transpose() * (omega * err)));
+  // Lambda(other, self) = J_other^T Omega J_self, kept only below the diagonal.
+  if (position[other] > position[variable]) {
+    acc.addBelow(position[other], j_other.transpose() * omega_j_self);
+  }
+}
+
 void PoseGraph2D::assembleColumn(Index variable, const Index* position,
                                  ColumnAccumulator<3>& acc) const {
-  const Index column = position[variable];
+  for (Index e = a_.first_entry[variable]; e != kNoIndex; e = a_.next_entry[e]) {
+    addContribution(a_.entry_factor[e], variable, position, false, 1.0, acc);
+  }
+}
+
+void PoseGraph2D::assembleColumnChange(Index variable, const Index* position,
+                                       ColumnAccumulator<3>& acc) const {
+  const bool self_moved = isStaged(variable);
   for (Index e = a_.first_entry[variable]; e != kNoIndex; e = a_.next_entry[e]) {
     const Index f = a_.entry_factor[e];
-    const Mat3& omega = a_.information[f];
-    if (a_.kind[f] == FactorKind::PriorSE2) {
-      Mat3 j;
-      const Vec3 err = priorErrorSE2(linearizationPoint(variable), a_.measurement[f], &j);
-      const Mat3 jt_omega = j.transpose() * omega;
-      acc.addDiagonal(jt_omega * j);
-      acc.addEta(-(jt_omega * err));
-      continue;
+    const bool is_new = f >= committed_factors_;
+    if (!is_new) {
+      const Index other =
+          a_.first_variable[f] == variable ? a_.second_variable[f] : a_.first_variable[f];
+      if (!self_moved && (other == kNoIndex || !isStaged(other))) continue;
+      addContribution(f, variable, position, true, -1.0, acc);
     }
-    const Index i = a_.first_variable[f];
-    const Index k = a_.second_variable[f];
-    Mat3 j_i;
-    Mat3 j_k;
-    const Vec3 err = betweenErrorSE2(linearizationPoint(i), linearizationPoint(k),
-                                     a_.measurement[f], &j_i, &j_k);
-    const bool is_first = (i == variable);
-    const Mat3& j_self = is_first ? j_i : j_k;
-    const Mat3& j_other = is_first ? j_k : j_i;
-    const Index other = is_first ? k : i;
-    const Mat3 omega_j_self = omega * j_self;
-    acc.addDiagonal(j_self.transpose() * omega_j_self);
-    acc.addEta(-(j_self.transpose() * (omega * err)));
-    // Lambda(other, self) = J_other^T Omega J_self, kept only below the diagonal.
-    if (position[other] > column) acc.addBelow(position[other], j_other.transpose() * omega_j_self);
+    addContribution(f, variable, position, false, 1.0, acc);
   }
 }
 

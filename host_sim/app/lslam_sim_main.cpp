@@ -31,6 +31,8 @@ int usage() {
   std::fprintf(stderr,
                "usage: lslam-sim run DATASET [--order online|file] [--solve-every N] [--json]\n"
                "                 [--csv STEPS.csv] [--out ESTIMATE.g2o] [--report REPORT.json]\n"
+               "                 [--relinearize-threshold T] [--backsub-tolerance T]\n"
+               "                 [--reorder-growth G] [--reorder-path COLUMNS]\n"
                "       lslam-sim generate OUT.g2o [--poses N] [--seed S]\n");
   return 2;
 }
@@ -41,6 +43,7 @@ struct RunArgs {
   int solve_every = 1;
   bool json = false;
   std::string csv, out, report;
+  lslam::SolverOptions solver;
 };
 
 double percentile(std::vector<double> v, double q) {
@@ -95,6 +98,7 @@ int run(const RunArgs& args) {
   IncrementalOptions options;
   options.order = args.order;
   options.solve_every = args.solve_every;
+  options.solver = args.solver;
   const IncrementalRun inc = runIncremental(d, options);
   const double chi2_inc = chi2G2o(d, inc.estimate);
   const double chi2_initial = chi2G2o(d, inc.initial);
@@ -217,6 +221,14 @@ int main(int argc, char** argv) {
         args.out = argv[++i];
       } else if (a == "--report" && has_value) {
         args.report = argv[++i];
+      } else if (a == "--relinearize-threshold" && has_value) {
+        args.solver.relinearize_threshold = std::atof(argv[++i]);
+      } else if (a == "--backsub-tolerance" && has_value) {
+        args.solver.backsubstitution_tolerance = std::atof(argv[++i]);
+      } else if (a == "--reorder-growth" && has_value) {
+        args.solver.reorder_growth = std::atof(argv[++i]);
+      } else if (a == "--reorder-path" && has_value) {
+        args.solver.reorder_path_columns = std::atoi(argv[++i]);
       } else {
         return usage();
       }

@@ -72,8 +72,15 @@ class PoseGraph2D final : public InformationSource<3> {
   void visitNeighbours(Index variable, NeighbourVisitor& visitor) const override;
   void assembleColumn(Index variable, const Index* position,
                       ColumnAccumulator<3>& acc) const override;
+  void assembleColumnChange(Index variable, const Index* position,
+                            ColumnAccumulator<3>& acc) const override;
 
  private:
+  bool isStaged(Index variable) const { return in_update_ && a_.staged[variable] == stamp_; }
+  // Adds sign * (the factor's share of Lambda's column `variable`, and of eta), linearized at the
+  // current points (committed == false) or at the committed ones.
+  void addContribution(Index factor, Index variable, const Index* position, bool committed,
+                       double sign, ColumnAccumulator<3>& acc) const;
   void link(Index variable, Index factor);
 
   PoseGraph2DArrays a_;

@@ -5,9 +5,21 @@
 // What an update recomputes. Column k of L depends only on column k of Lambda and on the columns in
 // its row subtree (the columns j < k with L(k, j) != 0, all descendants of k in the elimination
 // tree). When Lambda changes in a set S of columns, the columns of L that change are exactly the
-// ancestors of S in the (new) elimination tree: the paths from S to the root. An update recomputes
-// those columns only, left-looking from Lambda, so nothing is ever downdated inside L. With the
-// newest variable last, an odometry step touches the last two columns: constant work.
+// ancestors of S in the (new) elimination tree, A: the paths from S to the root. Every other column
+// is bit-for-bit unchanged. With the newest variable last, an odometry step touches the last two
+// columns: constant work.
+//
+// How it recomputes them. Write C(:,k) = L(:,k) L(k,k)^T = Lambda(:,k) - sum_{j<k} L(:,j) L(k,j)^T,
+// the column before its pivot. Columns j outside A contribute the same before and after, so
+//   C_new(:,k) = C_old(:,k) + dLambda(:,k) + sum_{j in A, j<k} (L_old(:,j) L_old(k,j)^T
+//                                                             - L_new(:,j) L_new(k,j)^T),
+// and the same for e = L(k,k) d(k) with eta. The update is therefore right-looking over A only:
+// each column of A starts from its old C (rebuilt from the old L, still in the pool, and the stored
+// diagonal factor), takes the change of Lambda, and once factorized sends its new contribution
+// minus its old one to the columns of its structure, all of which are in A. The work is that of
+// factorizing A's columns alone (iSAM2's "top of the Bayes tree"), not their whole row subtrees.
+// A full refactorization (after a reordering) is the same loop with C started from Lambda.
+// Rounding of the old-C reconstruction accumulates slowly; every reordering starts afresh.
 //
 // Copy on write. Recomputed columns are written to the free tail of the block pool, next to the
 // columns they replace; commit() switches the column table to them, rollback() forgets them. A
@@ -42,6 +54,8 @@ struct CholeskyArrays {
   Block* blocks = nullptr;
   Index* start = nullptr;
   Index* count = nullptr;
+  Block* diagonal = nullptr;  // L(k,k) per column (the pool holds its inverse)
+  Block* staged_diagonal = nullptr;
   Vector* d = nullptr;
   std::uint8_t* needs_solve = nullptr;
   Index* first_child = nullptr;
@@ -65,7 +79,7 @@ struct CholeskyArrays {
 struct FactorizationStats {
   Index columns_recomputed = 0;     // |ancestors of the changed columns|
   Index blocks_written = 0;         // blocks of those columns
-  std::int64_t block_products = 0;  // D x D multiply-adds of the left-looking sums
+  std::int64_t block_products = 0;  // D x D block products of the column updates
 };
 
 template <int D>
@@ -121,8 +135,10 @@ class IncrementalCholesky {
   Index stagedParent(Index k) const;
   [[nodiscard]] Status buildStructure(Index k, const InformationSource<D>& source,
                                       const Index* variable_at, const Index* position_of);
-  [[nodiscard]] Status computeColumn(Index k, const InformationSource<D>& source,
-                                     const Index* variable_at, const Index* position_of);
+  void startColumn(Index k, const InformationSource<D>& source, const Index* variable_at,
+                   const Index* position_of);
+  [[nodiscard]] Status finishColumn(Index k);
+  void scatter(const Index* rows, const Block* blocks, Index size, const Vector& d, double sign);
   std::uint32_t nextMark();
   void linkChild(Index parent, Index child);
   void unlinkChild(Index parent, Index child);
@@ -159,6 +175,8 @@ class StaticCholeskyStorage {
     a.blocks = blocks_;
     a.start = start_;
     a.count = count_;
+    a.diagonal = diagonal_;
+    a.staged_diagonal = staged_diagonal_;
     a.d = d_;
     a.needs_solve = needs_solve_;
     a.first_child = first_child_;
@@ -184,6 +202,8 @@ class StaticCholeskyStorage {
   Index rows_[MaxBlocks];
   Index start_[MaxColumns];
   Index count_[MaxColumns];
+  Block diagonal_[MaxColumns];
+  Block staged_diagonal_[MaxColumns];
   Vector d_[MaxColumns];
   std::uint8_t needs_solve_[MaxColumns];
   Index first_child_[MaxColumns + 1];

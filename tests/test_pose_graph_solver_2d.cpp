@@ -1,0 +1,281 @@
+// The incremental solver against the independent batch solver (host_sim) on random synthetic
+// graphs, and its handling of bad input: every rejected call must leave it exactly as it was.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <memory>
+#include <vector>
+
+#include "host_sim/batch_solver.h"
+#include "host_sim/chi2.h"
+#include "host_sim/incremental_run.h"
+#include "host_sim/steps.h"
+#include "host_sim/synthetic.h"
+#include "lslam/solver/pose_graph_solver_2d.h"
+
+using namespace lslam;
+using namespace lslam::sim;
+
+namespace {
+
+using SmallSolver = StaticPoseGraphSolver2D<400, 1200, 60000>;
+
+// The dataset restricted to the edges of steps [0, last].
+Dataset2D prefix(const Dataset2D& d, const std::vector<Step>& steps, std::size_t last) {
+  Dataset2D out;
+  out.name = d.name;
+  for (std::size_t s = 0; s <= last; ++s)
+    for (std::size_t e : steps[s].edges) out.edges.push_back(d.edges[e]);
+  return out;
+}
+
+Estimate2D estimateOf(const PoseGraphSolver2D& solver) {
+  Estimate2D e;
+  for (Index v = 0; v < solver.poses(); ++v) {
+    const SE2 p = solver.estimateAt(v);
+    e[solver.idAt(v)] = Pose2D{p.x(), p.y(), p.theta()};
+  }
+  return e;
+}
+
+// Feeds one online step; returns the status.
+Status feedStep(PoseGraphSolver2D& solver, const Dataset2D& d, const Step& step,
+                Estimate2D& initial) {
+  PoseInput pose;
+  pose.id = step.new_pose;
+  Pose2D init{};
+  if (!step.edges.empty()) {
+    const Edge2D& first = d.edges[step.edges.front()];
+    const std::int64_t known = first.from == step.new_pose ? first.to : first.from;
+    SE2 k;
+    REQUIRE(solver.estimate(known, &k) == Status::Ok);
+    init = initialPoseFromEdge(first, step.new_pose, Pose2D{k.x(), k.y(), k.theta()});
+  }
+  pose.initial = SE2(init.x, init.y, init.theta);
+  initial[pose.id] = Pose2D{pose.initial.x(), pose.initial.y(), pose.initial.theta()};
+  std::vector<FactorInput> factors;
+  for (std::size_t e : step.edges) factors.push_back(toFactorInput(d.edges[e]));
+  return solver.update(&pose, 1, factors.data(), static_cast<Index>(factors.size()));
+}
+
+double maxPositionDiff(const Estimate2D& a, const Estimate2D& b) {
+  double m = 0.0;
+  for (const auto& [id, p] : a) m = std::max(m, std::hypot(p.x - b.at(id).x, p.y - b.at(id).y));
+  return m;
+}
+
+}  // namespace
+
+TEST_CASE("incremental estimate tracks the batch optimum on random synthetic graphs") {
+  for (std::uint32_t seed = 1; seed <= 12; ++seed) {
+    CAPTURE(seed);
+    SyntheticOptions o;
+    o.poses = 200;
+    o.seed = seed;
+    const Dataset2D d = generateManhattanWorld(o).dataset;
+    const std::vector<Step> steps = buildSteps(d, StepOrder::Online);
+    SolverOptions options;
+    options.relinearize_threshold = 1e-3;
+    options.backsubstitution_tolerance = 1e-9;
+    options.reorder_min_variables = 20;  // exercise reordering on small graphs too
+    options.reorder_path_columns = 30;
+    auto solver = std::make_unique<SmallSolver>(options);
+    Estimate2D initial;
+    for (std::size_t s = 0; s < steps.size(); ++s) {
+      REQUIRE(feedStep(*solver, d, steps[s], initial) == Status::Ok);
+      if (s % 40 != 39 && s + 1 != steps.size()) continue;
+      const Dataset2D seen = prefix(d, steps, s);
+      if (seen.edges.empty()) continue;
+      const BatchResult batch = solveBatch2D(seen, initial);
+      REQUIRE(batch.converged);
+      const Estimate2D inc = estimateOf(*solver);
+      const double chi2_inc = chi2G2o(seen, inc);
+      CHECK(chi2_inc <= batch.chi2 * (1.0 + 1e-3) + 1e-9);
+      CHECK(chi2_inc >= batch.chi2 * (1.0 - 1e-9) - 1e-9);  // the batch optimum is a minimum
+      CHECK(maxPositionDiff(inc, batch.poses) < 0.02);
+    }
+  }
+}
+
+TEST_CASE("optimize() reaches the batch optimum") {
+  for (std::uint32_t seed = 20; seed < 26; ++seed) {
+    CAPTURE(seed);
+    SyntheticOptions o;
+    o.poses = 150;
+    o.seed = seed;
+    const Dataset2D d = generateManhattanWorld(o).dataset;
+    const std::vector<Step> steps = buildSteps(d, StepOrder::Online);
+    SolverOptions options;
+    options.relinearize_threshold = 0.5;  // deliberately coarse: optimize() must fix it
+    auto solver = std::make_unique<SmallSolver>(options);
+    Estimate2D initial;
+    for (const Step& step : steps) REQUIRE(feedStep(*solver, d, step, initial) == Status::Ok);
+    UpdateResult r;
+    REQUIRE(solver->optimize(50, 1e-10, &r) == Status::Ok);
+    const BatchResult batch = solveBatch2D(d, initial);
+    REQUIRE(batch.converged);
+    const Estimate2D inc = estimateOf(*solver);
+    CHECK(chi2G2o(d, inc) == doctest::Approx(batch.chi2).epsilon(1e-8));
+    CHECK(maxPositionDiff(inc, batch.poses) < 1e-6);
+  }
+}
+
+namespace {
+
+// Every value the solver stores that defines its state, for exact comparison.
+struct Snapshot {
+  std::vector<double> values;
+  std::vector<long long> integers;
+  bool operator==(const Snapshot& o) const {
+    return integers == o.integers && values.size() == o.values.size() &&
+           std::memcmp(values.data(), o.values.data(), values.size() * sizeof(double)) == 0;
+  }
+};
+
+Snapshot snapshot(const PoseGraphSolver2D& s) {
+  Snapshot snap;
+  const PoseGraph2D& g = s.graph();
+  snap.integers = {s.poses(), s.factors(), s.factorBlocks(), s.factor().columns()};
+  for (Index v = 0; v < s.poses(); ++v) {
+    snap.integers.push_back(s.idAt(v));
+    snap.integers.push_back(s.positionOf()[v]);
+    const SE2& lin = g.linearizationPoint(v);
+    const SE2 est = s.estimateAt(v);
+    for (double x : {lin.x(), lin.y(), lin.theta(), est.x(), est.y(), est.theta()})
+      snap.values.push_back(x);
+  }
+  for (Index f = 0; f < s.factors(); ++f) {
+    snap.integers.push_back(static_cast<int>(g.kind(f)));
+    snap.integers.push_back(g.firstVariable(f));
+    snap.integers.push_back(g.secondVariable(f));
+    const SE2& z = g.measurement(f);
+    for (double x : {z.x(), z.y(), z.theta()}) snap.values.push_back(x);
+    for (int i = 0; i < 9; ++i) snap.values.push_back(g.information(f)(i));
+  }
+  const IncrementalCholesky<3>& l = s.factor();
+  for (Index k = 0; k < l.columns(); ++k) {
+    for (Index i = 0; i < l.columnSize(k); ++i) {
+      snap.integers.push_back(l.columnRows(k)[i]);
+      for (int j = 0; j < 9; ++j) snap.values.push_back(l.columnBlocks(k)[i](j));
+    }
+    for (int j = 0; j < 3; ++j) snap.values.push_back(l.rhs(k)(j));
+  }
+  return snap;
+}
+
+FactorInput between(VariableId from, VariableId to, const SE2& z) {
+  FactorInput f;
+  f.kind = FactorKind::BetweenSE2;
+  f.from = from;
+  f.to = to;
+  f.measurement = z;
+  f.information = Mat3::Identity() * 100.0;
+  return f;
+}
+
+}  // namespace
+
+TEST_CASE("every rejected input returns its status and leaves the solver bit-identical") {
+  auto solver = std::make_unique<SmallSolver>();
+  auto reference = std::make_unique<SmallSolver>();  // sees only the valid inputs
+  const SE2 step(1.0, 0.0, 0.1);
+  auto feed = [&](PoseGraphSolver2D& s, VariableId id) {
+    PoseInput p{id, SE2(static_cast<double>(id), 0.0, 0.0)};
+    if (id == 0) return s.update(&p, 1, nullptr, 0);
+    FactorInput f[2] = {between(id - 1, id, step), between(id / 2, id, SE2(0.5, 0.2, 0.0))};
+    return s.update(&p, 1, f, id > 3 ? 2 : 1);
+  };
+  for (VariableId id = 0; id < 30; ++id) {
+    REQUIRE(feed(*solver, id) == Status::Ok);
+    REQUIRE(feed(*reference, id) == Status::Ok);
+  }
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  struct BadCall {
+    const char* what;
+    std::vector<PoseInput> poses;
+    std::vector<FactorInput> factors;
+    Status expected;
+  };
+  Mat3 not_symmetric = Mat3::Identity();
+  not_symmetric(0, 1) = 0.5;
+  Mat3 indefinite = Mat3::Identity();
+  indefinite(2, 2) = -1.0;
+  Mat3 nan_info = Mat3::Identity();
+  nan_info(1, 1) = nan;
+  auto with_info = [&](const Mat3& info) {
+    FactorInput f = between(29, 30, step);
+    f.information = info;
+    return f;
+  };
+  const PoseInput next{30, SE2(30.0, 0.0, 0.0)};
+  std::vector<BadCall> calls = {
+      {"NaN in a measurement",
+       {next},
+       {between(29, 30, SE2(nan, 0.0, 0.0))},
+       Status::NonFiniteInput},
+      {"Inf in an initial value",
+       {{30, SE2(inf, 0.0, 0.0)}},
+       {between(29, 30, step)},
+       Status::NonFiniteInput},
+      {"NaN in an information matrix", {next}, {with_info(nan_info)}, Status::NonFiniteInput},
+      {"non-symmetric information",
+       {next},
+       {with_info(not_symmetric)},
+       Status::InformationNotPositiveDefinite},
+      {"indefinite information",
+       {next},
+       {with_info(indefinite)},
+       Status::InformationNotPositiveDefinite},
+      {"zero information",
+       {next},
+       {with_info(Mat3::Zero())},
+       Status::InformationNotPositiveDefinite},
+      {"unknown pose id",
+       {next},
+       {between(29, 30, step), between(77, 30, step)},
+       Status::UnknownVariable},
+      {"duplicate pose id (existing)",
+       {{12, SE2()}},
+       {between(11, 12, step)},
+       Status::DuplicateVariable},
+      {"duplicate pose id (twice in one call)",
+       {next, next},
+       {between(29, 30, step)},
+       Status::DuplicateVariable},
+      {"unconstrained new pose",
+       {next, {31, SE2()}},
+       {between(29, 30, step)},
+       Status::UnconstrainedVariable},
+      {"self loop",
+       {next},
+       {between(29, 30, step), between(30, 30, step)},
+       Status::InvalidArgument},
+      {"negative id", {{-4, SE2()}}, {between(29, -4, step)}, Status::InvalidArgument},
+  };
+  const Snapshot before = snapshot(*solver);
+  for (const BadCall& call : calls) {
+    CAPTURE(call.what);
+    UpdateResult r;
+    const Status s =
+        solver->update(call.poses.data(), static_cast<Index>(call.poses.size()),
+                       call.factors.data(), static_cast<Index>(call.factors.size()), &r);
+    CHECK(s == call.expected);
+    CHECK(r.status == call.expected);
+    CHECK(snapshot(*solver) == before);
+  }
+  // Capacity: a solver that is full rejects the next pose and keeps everything.
+  auto tiny = std::make_unique<StaticPoseGraphSolver2D<5, 8, 200>>();
+  for (VariableId id = 0; id < 5; ++id) REQUIRE(feed(*tiny, id) == Status::Ok);
+  const Snapshot full = snapshot(*tiny);
+  CHECK(feed(*tiny, 5) == Status::CapacityExhausted);
+  CHECK(snapshot(*tiny) == full);
+  // After all that, the solver goes on exactly like one that never saw the bad inputs.
+  for (VariableId id = 30; id < 60; ++id) {
+    REQUIRE(feed(*solver, id) == Status::Ok);
+    REQUIRE(feed(*reference, id) == Status::Ok);
+  }
+  CHECK(snapshot(*solver) == snapshot(*reference));
+}

@@ -1,0 +1,58 @@
+// The public datasets, run incrementally to the end in online order: the incremental estimate after
+// the last step (no extra iterations) must be within 0.1% of the batch optimum's chi2, and the
+// batch optimum must agree with the MANIFEST's reference chi2 to 3 digits. Files that are absent
+// are skipped with a message.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <fstream>
+#include <string>
+
+#include "host_sim/batch_solver.h"
+#include "host_sim/chi2.h"
+#include "host_sim/dataset_io.h"
+#include "host_sim/incremental_run.h"
+
+using namespace lslam::sim;
+
+namespace {
+
+struct Case {
+  const char* file;
+  double reference_chi2;  // ../shared/datasets/MANIFEST.md, section 2 (LM column)
+};
+
+void runCase(const Case& c) {
+  const std::string path = std::string(LSLAM_DATASETS_DIR) + "/2d/" + c.file;
+  if (!std::ifstream(path).good()) {
+    MESSAGE("SKIP: " << path << " not found");
+    return;
+  }
+  const std::string name = c.file;
+  CAPTURE(name);
+  const Dataset2D d = readDataset2D(path);
+  const IncrementalRun run = runIncremental(d, IncrementalOptions{});
+  const double chi2_incremental = chi2G2o(d, run.estimate);
+  const BatchResult batch = solveBatch2D(d, run.initial);
+  MESSAGE(name << ": incremental chi2 " << chi2_incremental << " in " << run.total_seconds
+               << " s; batch chi2 " << batch.chi2 << " (" << batch.stop_reason << ")");
+  REQUIRE(batch.converged);
+  CHECK(std::abs(batch.chi2 - c.reference_chi2) <= 5e-4 * c.reference_chi2);
+  CHECK(chi2_incremental <= batch.chi2 * 1.001);
+  CHECK(chi2_incremental >= batch.chi2 * (1.0 - 1e-9));
+}
+
+}  // namespace
+
+TEST_CASE("intel.g2o") {
+  runCase({"intel.g2o", 546.46});
+}
+TEST_CASE("manhattanOlson3500.g2o") {
+  runCase({"manhattanOlson3500.g2o", 146.08});
+}
+TEST_CASE("M3500.g2o") {
+  runCase({"M3500.g2o", 137.91});
+}
+TEST_CASE("city10000.g2o") {
+  runCase({"city10000.g2o", 511.99});
+}
