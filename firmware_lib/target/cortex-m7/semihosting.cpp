@@ -97,6 +97,21 @@ Line& Line::real(double value, int significant) noexcept {
   return *this;
 }
 
+Line& Line::fixed(double value, int decimals) noexcept {
+  if (!std::isfinite(value)) return real(value);
+  decimals = decimals < 0 ? 0 : (decimals > 9 ? 9 : decimals);
+  const unsigned long long scale = static_cast<unsigned long long>(std::pow(10.0, decimals));
+  const unsigned long long scaled =
+      static_cast<unsigned long long>(std::llround(std::fabs(value) * static_cast<double>(scale)));
+  if (value < 0 && scaled != 0) put('-');
+  putDigits(scaled / scale, 1);
+  if (decimals > 0) {
+    put('.');
+    putDigits(scaled % scale, decimals);
+  }
+  return *this;
+}
+
 void Line::print() noexcept {
   buffer_[size_] = '\n';
   buffer_[size_ + 1] = '\0';

@@ -10,6 +10,7 @@ if(NOT LSLAM_ARM_GCC OR NOT LSLAM_ARM_GXX)
                       "gcc-arm-none-eabi libnewlib-arm-none-eabi libstdc++-arm-none-eabi-newlib "
                       "(.ci/deps target, as root).")
 endif()
+find_program(LSLAM_ARM_SIZE arm-none-eabi-size)
 set(CMAKE_C_COMPILER ${LSLAM_ARM_GCC})
 set(CMAKE_CXX_COMPILER ${LSLAM_ARM_GXX})
 # No executable can run during configuration (no startup code yet): probe with static libraries.

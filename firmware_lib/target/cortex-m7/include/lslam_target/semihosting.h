@@ -21,6 +21,8 @@ class Line {
   // Scientific notation with `significant` digits (1..17), e.g. 1.401126059e+03. Rounded through
   // pow(10, .), so the last digit or two may be off: for reading, not for comparing.
   Line& real(double value, int significant = 10) noexcept;
+  // Fixed notation with `decimals` digits after the point (0..9), e.g. 9.68; |value| < 1e9.
+  Line& fixed(double value, int decimals) noexcept;
   // Writes the line with a newline and starts a new one.
   void print() noexcept;
 

@@ -1,0 +1,208 @@
+#include "step_costs.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "lslam_target/semihosting.h"
+
+namespace {
+
+using lslam::target::Line;
+
+constexpr std::int32_t kMaxSteps = 1024;
+std::uint64_t g_sorted[kMaxSteps];  // scratch for medians (no heap)
+
+constexpr StepKind kKinds[] = {StepKind::First, StepKind::Odometry, StepKind::LoopClosure,
+                               StepKind::Relinearization, StepKind::Reorder};
+
+const char* name(StepKind kind) {
+  switch (kind) {
+    case StepKind::First:
+      return "first";
+    case StepKind::Reorder:
+      return "reorder";
+    case StepKind::Relinearization:
+      return "relinearization";
+    case StepKind::LoopClosure:
+      return "loop-closure";
+    case StepKind::Odometry:
+      return "odometry";
+  }
+  return "?";
+}
+
+void printStep(std::int32_t index, const StepCost& c) {
+  Line()
+      .text("step ")
+      .integer(index)
+      .text(" ")
+      .text(name(c.kind))
+      .text(" instructions ")
+      .integer(static_cast<long long>(c.instructions))
+      .text(" columns_refactored ")
+      .integer(c.result.columns_refactored)
+      .text(" block_products ")
+      .integer(c.result.block_products)
+      .text(" variables_solved ")
+      .integer(c.result.variables_solved)
+      .text(" relinearized ")
+      .integer(c.result.variables_relinearized)
+      .text(" factor_blocks ")
+      .integer(c.result.factor_blocks)
+      .print();
+}
+
+void printSummary(const StepCost* costs, std::int32_t count, StepKind kind) {
+  std::int32_t n = 0;
+  double sum = 0.0;
+  for (std::int32_t s = 0; s < count && n < kMaxSteps; ++s) {
+    if (costs[s].kind != kind) continue;
+    g_sorted[n++] = costs[s].instructions;
+    sum += static_cast<double>(costs[s].instructions);
+  }
+  if (n == 0) return;
+  std::sort(g_sorted, g_sorted + n);
+  Line()
+      .text("summary ")
+      .text(name(kind))
+      .text(": steps ")
+      .integer(n)
+      .text(" min ")
+      .integer(static_cast<long long>(g_sorted[0]))
+      .text(" median ")
+      .integer(static_cast<long long>(g_sorted[n / 2]))
+      .text(" mean ")
+      .integer(std::llround(sum / n))
+      .text(" max ")
+      .integer(static_cast<long long>(g_sorted[n - 1]))
+      .text(" instructions")
+      .print();
+}
+
+struct Fit {
+  double intercept = 0.0;
+  double slope = 0.0;
+  double r2 = 0.0;
+  bool valid = false;
+};
+
+// Least squares instructions = intercept + slope * x over the steps of one kind.
+template <typename Work>
+Fit fit(const StepCost* costs, std::int32_t count, StepKind kind, Work work) {
+  double n = 0, sx = 0, sy = 0, sxx = 0, sxy = 0, syy = 0;
+  for (std::int32_t s = 0; s < count; ++s) {
+    if (costs[s].kind != kind) continue;
+    const double x = work(s, costs[s].result);
+    const double y = static_cast<double>(costs[s].instructions);
+    n += 1;
+    sx += x;
+    sy += y;
+    sxx += x * x;
+    sxy += x * y;
+    syy += y * y;
+  }
+  Fit f;
+  const double cxx = sxx - sx * sx / n, cxy = sxy - sx * sy / n, cyy = syy - sy * sy / n;
+  if (n < 2 || cxx <= 0 || cyy <= 0) return f;
+  f.slope = cxy / cxx;
+  f.intercept = (sy - f.slope * sx) / n;
+  f.r2 = cxy * cxy / (cxx * cyy);
+  f.valid = true;
+  return f;
+}
+
+template <typename Work>
+void printLoopClosureFit(const StepCost* costs, std::int32_t count, const char* what, Work work) {
+  const Fit f = fit(costs, count, StepKind::LoopClosure, work);
+  if (!f.valid) return;
+  Line()
+      .text("loop-closure fit: instructions = ")
+      .real(f.intercept, 4)
+      .text(" + ")
+      .real(f.slope, 4)
+      .text(" * ")
+      .text(what)
+      .text(", R^2 = ")
+      .real(f.r2, 4)
+      .print();
+}
+
+// First and last odometry step, (max - min) / median over all of them, and the trend: the change
+// from the first to the last odometry step of a straight line fitted to count against step index,
+// relative to the median. Returns the trend in percent.
+double printOdometrySpread(const StepCost* costs, std::int32_t count) {
+  std::int32_t first = -1, last = -1, n = 0;
+  for (std::int32_t s = 0; s < count && n < kMaxSteps; ++s) {
+    if (costs[s].kind != StepKind::Odometry) continue;
+    if (first < 0) first = s;
+    last = s;
+    g_sorted[n++] = costs[s].instructions;
+  }
+  if (n == 0) return 0.0;
+  std::sort(g_sorted, g_sorted + n);
+  const double median = static_cast<double>(g_sorted[n / 2]);
+  const auto percent = [median](double v) { return 100.0 * v / median; };
+  Line()
+      .text("odometry: first (step ")
+      .integer(first)
+      .text(") ")
+      .integer(static_cast<long long>(costs[first].instructions))
+      .text(", last (step ")
+      .integer(last)
+      .text(") ")
+      .integer(static_cast<long long>(costs[last].instructions))
+      .text(" instructions; last - first = ")
+      .fixed(percent(static_cast<double>(costs[last].instructions) -
+                     static_cast<double>(costs[first].instructions)),
+             2)
+      .text(" %, (max - min) / median = ")
+      .fixed(percent(static_cast<double>(g_sorted[n - 1] - g_sorted[0])), 2)
+      .text(" %")
+      .print();
+  const Fit trend = fit(costs, count, StepKind::Odometry,
+                        [](std::int32_t s, const lslam::UpdateResult&) { return double(s); });
+  const double trend_percent = percent(trend.slope * (last - first));
+  Line()
+      .text("odometry trend (least squares over the stream, first to last step): ")
+      .fixed(trend_percent, 2)
+      .text(" % of the median ")
+      .integer(static_cast<long long>(median))
+      .print();
+  return trend_percent;
+}
+
+void printWorstLoopClosure(const StepCost* costs, std::int32_t count) {
+  std::int32_t worst = -1;
+  for (std::int32_t s = 0; s < count; ++s) {
+    if (costs[s].kind != StepKind::LoopClosure) continue;
+    if (worst < 0 || costs[s].instructions > costs[worst].instructions) worst = s;
+  }
+  if (worst < 0) return;
+  Line().text("worst loop-closure step:").print();
+  printStep(worst, costs[worst]);
+  printLoopClosureFit(costs, count, "block_products",
+                      [](std::int32_t, const lslam::UpdateResult& r) {
+                        return static_cast<double>(r.block_products);
+                      });
+  printLoopClosureFit(costs, count, "columns_refactored",
+                      [](std::int32_t, const lslam::UpdateResult& r) {
+                        return static_cast<double>(r.columns_refactored);
+                      });
+  printLoopClosureFit(costs, count, "variables_solved",
+                      [](std::int32_t, const lslam::UpdateResult& r) {
+                        return static_cast<double>(r.variables_solved);
+                      });
+}
+
+}  // namespace
+
+double printStepCosts(const StepCost* costs, std::int32_t count) {
+  Line()
+      .text("instructions per step (update + solve; QEMU -icount shift=0, resolution 40):")
+      .print();
+  for (std::int32_t s = 0; s < count; ++s) printStep(s, costs[s]);
+  for (StepKind kind : kKinds) printSummary(costs, count, kind);
+  const double trend = printOdometrySpread(costs, count);
+  printWorstLoopClosure(costs, count);
+  return trend;
+}

@@ -1,0 +1,69 @@
+// Tests of the stream header the target programs embed (host_sim/stream_header.h): the committed
+// data/manhattan_world_500_stream.h must be exactly what the host generates now, so the target is
+// always checked against the current host results.
+#include <doctest/doctest.h>
+
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+#include "host_sim/dataset.h"
+#include "host_sim/dataset_io.h"
+#include "host_sim/stream_header.h"
+
+using lslam::sim::Dataset2D;
+using lslam::sim::streamHeader;
+
+namespace {
+
+const std::string kDataDir = LSLAM_DATA_DIR;
+
+std::string readFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  REQUIRE_MESSAGE(in.good(), "cannot read " << path);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// 1-based number of the first line where a and b differ (0 if they are equal).
+int firstDifferingLine(const std::string& a, const std::string& b) {
+  if (a == b) return 0;
+  int line = 1;
+  for (std::size_t i = 0; i < a.size() && i < b.size() && a[i] == b[i]; ++i) line += a[i] == '\n';
+  return line;
+}
+
+}  // namespace
+
+TEST_CASE("the committed manhattan_world_500 stream header is what the host generates now") {
+  const Dataset2D d = lslam::sim::readDataset2D(kDataDir + "/manhattan_world_500.g2o");
+  const std::string generated = streamHeader(d, "manhattan_world_500.g2o", "manhattan_world_500");
+  const std::string committed = readFile(kDataDir + "/manhattan_world_500_stream.h");
+  CHECK_MESSAGE(firstDifferingLine(committed, generated) == 0,
+                "data/manhattan_world_500_stream.h is stale; regenerate it with\n"
+                "  build/ci/host_sim/lslam-stream-header data/manhattan_world_500.g2o "
+                "data/manhattan_world_500_stream.h");
+}
+
+TEST_CASE("streamHeader is deterministic and holds every step and measurement") {
+  const Dataset2D d = lslam::sim::readDataset2D(kDataDir + "/manhattan_world_500.g2o");
+  const std::string a = streamHeader(d, "m.g2o", "m");
+  CHECK(a == streamHeader(d, "m.g2o", "m"));
+  CHECK(a.find("kNumSteps = 500;") != std::string::npos);
+  CHECK(a.find("kNumFactors = " + std::to_string(d.edges.size()) + ";") != std::string::npos);
+  CHECK(a.find("namespace lslam::stream::m {") != std::string::npos);
+}
+
+TEST_CASE("streamHeader rejects a namespace that is not an identifier and ids beyond 32 bits") {
+  Dataset2D d;
+  d.vertices.push_back({0, {}, 0});
+  d.vertices.push_back({1, {1.0, 0.0, 0.0}, 0});
+  d.edges.push_back({0, 1, {1.0, 0.0, 0.0}, Eigen::Matrix3d::Identity(), 0});
+  CHECK_THROWS_AS(streamHeader(d, "x.g2o", "2bad"), std::invalid_argument);
+  CHECK_THROWS_AS(streamHeader(d, "x.g2o", "a-b"), std::invalid_argument);
+  CHECK_NOTHROW(streamHeader(d, "x.g2o", "tiny"));
+  d.vertices[1].id = d.edges[0].to = std::int64_t{1} << 32;
+  CHECK_THROWS_AS(streamHeader(d, "x.g2o", "tiny"), std::invalid_argument);
+}
