@@ -127,13 +127,12 @@ void printLoopClosureFit(const StepCost* costs, std::int32_t count, const char* 
       .print();
 }
 
-// First and last odometry step, (max - min) / median over all of them, and the trend: the change
-// from the first to the last odometry step of a straight line fitted to count against step index,
-// relative to the median. Returns the trend in percent.
-double printOdometrySpread(const StepCost* costs, std::int32_t count) {
+// First and last odometry step of those `along_x` selects (all of them, or those going along
+// +x), with (max - min) / median over them. Returns the median.
+double printOdometryRange(const StepCost* costs, std::int32_t count, bool only_along_x) {
   std::int32_t first = -1, last = -1, n = 0;
   for (std::int32_t s = 0; s < count && n < kMaxSteps; ++s) {
-    if (costs[s].kind != StepKind::Odometry) continue;
+    if (costs[s].kind != StepKind::Odometry || (only_along_x && !costs[s].along_x)) continue;
     if (first < 0) first = s;
     last = s;
     g_sorted[n++] = costs[s].instructions;
@@ -143,7 +142,9 @@ double printOdometrySpread(const StepCost* costs, std::int32_t count) {
   const double median = static_cast<double>(g_sorted[n / 2]);
   const auto percent = [median](double v) { return 100.0 * v / median; };
   Line()
-      .text("odometry: first (step ")
+      .text(only_along_x ? "odometry along +x (" : "odometry, all (")
+      .integer(n)
+      .text(" steps): first (step ")
       .integer(first)
       .text(") ")
       .integer(static_cast<long long>(costs[first].instructions))
@@ -151,7 +152,9 @@ double printOdometrySpread(const StepCost* costs, std::int32_t count) {
       .integer(last)
       .text(") ")
       .integer(static_cast<long long>(costs[last].instructions))
-      .text(" instructions; last - first = ")
+      .text(", median ")
+      .integer(static_cast<long long>(median))
+      .text("; last - first = ")
       .fixed(percent(static_cast<double>(costs[last].instructions) -
                      static_cast<double>(costs[first].instructions)),
              2)
@@ -159,14 +162,29 @@ double printOdometrySpread(const StepCost* costs, std::int32_t count) {
       .fixed(percent(static_cast<double>(g_sorted[n - 1] - g_sorted[0])), 2)
       .text(" %")
       .print();
+  return median;
+}
+
+// The odometry steps' ranges, and the trend: the change from the first to the last odometry step
+// of a straight line fitted to count against step index, relative to the median. Returns the
+// trend in percent.
+double printOdometry(const StepCost* costs, std::int32_t count) {
+  const double median = printOdometryRange(costs, count, false);
+  printOdometryRange(costs, count, true);
+  std::int32_t first = -1, last = -1;
+  for (std::int32_t s = 0; s < count; ++s) {
+    if (costs[s].kind != StepKind::Odometry) continue;
+    if (first < 0) first = s;
+    last = s;
+  }
+  if (first < 0 || median <= 0) return 0.0;
   const Fit trend = fit(costs, count, StepKind::Odometry,
                         [](std::int32_t s, const lslam::UpdateResult&) { return double(s); });
-  const double trend_percent = percent(trend.slope * (last - first));
+  const double trend_percent = 100.0 * trend.slope * (last - first) / median;
   Line()
       .text("odometry trend (least squares over the stream, first to last step): ")
       .fixed(trend_percent, 2)
-      .text(" % of the median ")
-      .integer(static_cast<long long>(median))
+      .text(" % of the median")
       .print();
   return trend_percent;
 }
@@ -202,7 +220,7 @@ double printStepCosts(const StepCost* costs, std::int32_t count) {
       .print();
   for (std::int32_t s = 0; s < count; ++s) printStep(s, costs[s]);
   for (StepKind kind : kKinds) printSummary(costs, count, kind);
-  const double trend = printOdometrySpread(costs, count);
+  const double trend = printOdometry(costs, count);
   printWorstLoopClosure(costs, count);
   return trend;
 }

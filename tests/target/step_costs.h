@@ -12,6 +12,7 @@ enum class StepKind : std::uint8_t { First, Reorder, Relinearization, LoopClosur
 struct StepCost {
   std::uint64_t instructions = 0;   // update() + solve(), resolution 40 instructions
   StepKind kind = StepKind::First;  // 0: an array of StepCost stays in .bss
+  bool along_x = false;             // starts and ends heading along +x (|theta| < pi/4)
   lslam::UpdateResult result;
 };
 
