@@ -70,8 +70,8 @@ class DenseSource final : public lslam::InformationSource<3> {
     acc.addEta(eta.segment<3>(3 * v) - committed_eta.segment<3>(3 * v));
     for (Index u : neighbours[v])
       if (position[u] > position[v])
-        acc.addBelow(position[u], lambda.block<3, 3>(3 * u, 3 * v) -
-                                      committed_lambda.block<3, 3>(3 * u, 3 * v));
+        acc.addBelow(position[u],
+                     lambda.block<3, 3>(3 * u, 3 * v) - committed_lambda.block<3, 3>(3 * u, 3 * v));
   }
   void commit() {
     committed_lambda = lambda;
@@ -137,6 +137,37 @@ struct Harness {
   DenseSource source;
   std::vector<Index> variable_at, position_of;
 
+  // Adds one variable with its odometry factor, sometimes loop closures to random older variables
+  // and a re-weighted existing pair (as a relinearization changes them). Returns the pairs
+  // touched.
+  std::vector<std::pair<Index, Index>> growOneStep(std::mt19937& rng) {
+    std::uniform_int_distribution<int> coin(0, 3);
+    const Index v = source.size();
+    source.addVariable();
+    variable_at.push_back(v);
+    position_of.push_back(v);
+    std::vector<std::pair<Index, Index>> touched;
+    if (v == 0) {
+      source.addPrior(0);
+      touched.push_back({0, 0});
+      return touched;
+    }
+    source.addFactor(v - 1, v, rng);  // odometry
+    touched.push_back({v - 1, v});
+    const int loops = coin(rng) == 0 ? 1 + coin(rng) : 0;
+    for (int l = 0; l < loops; ++l) {
+      const Index old = std::uniform_int_distribution<Index>(0, v - 1)(rng);
+      source.addFactor(old, v, rng);
+      touched.push_back({old, v});
+    }
+    if (coin(rng) == 0 && v > 2) {
+      const Index a = std::uniform_int_distribution<Index>(1, v - 1)(rng);
+      source.addFactor(a - 1, a, rng);
+      touched.push_back({a - 1, a});
+    }
+    return touched;
+  }
+
   lslam::Status update(Index new_vars, const std::vector<std::pair<Index, Index>>& touched) {
     chol.beginUpdate(new_vars, false);
     for (auto [a, b] : touched) {
@@ -163,31 +194,7 @@ TEST_CASE("incremental block Cholesky equals dense LLT over random growth sequen
     auto h = std::make_unique<Harness>();
     std::uniform_int_distribution<int> coin(0, 3);
     for (Index step = 0; step < 60; ++step) {
-      const Index v = h->source.size();
-      h->source.addVariable();
-      h->variable_at.push_back(v);
-      h->position_of.push_back(v);
-      std::vector<std::pair<Index, Index>> touched;
-      if (v == 0) {
-        h->source.addPrior(0);
-        touched.push_back({0, 0});
-      } else {
-        h->source.addFactor(v - 1, v, rng);  // odometry
-        touched.push_back({v - 1, v});
-        // loop closures to random older variables, and re-weighted existing pairs (as a
-        // relinearization changes them)
-        const int loops = coin(rng) == 0 ? 1 + coin(rng) : 0;
-        for (int l = 0; l < loops; ++l) {
-          const Index old = std::uniform_int_distribution<Index>(0, v - 1)(rng);
-          h->source.addFactor(old, v, rng);
-          touched.push_back({old, v});
-        }
-        if (coin(rng) == 0 && v > 2) {
-          const Index a = std::uniform_int_distribution<Index>(1, v - 1)(rng);
-          h->source.addFactor(a - 1, a, rng);
-          touched.push_back({a - 1, a});
-        }
-      }
+      const std::vector<std::pair<Index, Index>> touched = h->growOneStep(rng);
       REQUIRE(h->update(1, touched) == lslam::Status::Ok);
       checkAgainstDense(h->chol, h->source, h->variable_at);
     }
@@ -300,4 +307,61 @@ TEST_CASE("a non-positive pivot is reported and the factor is left exactly as it
   CHECK(h->chol.liveBlocks() == live);
   CHECK(h->chol.poolEnd() == pool_end);
   CHECK((denseFactor(h->chol) - before).cwiseAbs().maxCoeff() == 0.0);
+}
+
+TEST_CASE("a reordered update of the affected top equals dense LLT in the new order") {
+  using ColamdStorage =
+      lslam::StaticColamdStorage<kMaxColumns * kMaxColumns, kMaxColumns, kMaxColumns>;
+  for (unsigned seed = 300; seed < 330; ++seed) {
+    CAPTURE(seed);
+    std::mt19937 rng(seed);
+    auto h = std::make_unique<Harness>();
+    auto colamd = std::make_unique<ColamdStorage>();
+    lslam::ColamdOrdering ordering(colamd->arrays());
+    std::uniform_int_distribution<int> coin(0, 3);
+    Index reordered_updates = 0;
+    for (Index step = 0; step < 60; ++step) {
+      const Index v = h->source.size();
+      const std::vector<std::pair<Index, Index>> touched = h->growOneStep(rng);
+      h->chol.beginUpdate(1, false);
+      for (auto [a, b] : touched) {
+        h->chol.markChanged(h->position_of[a]);
+        h->chol.markChanged(h->position_of[b]);
+      }
+      // The existing variables of the new factors last (ascending), then the new variable.
+      std::set<Index> old_last;
+      for (auto [a, b] : touched) {
+        if (a != v) old_last.insert(h->position_of[a]);
+        if (b != v) old_last.insert(h->position_of[b]);
+      }
+      std::vector<Index> last(old_last.begin(), old_last.end());
+      last.push_back(h->position_of[v]);
+      std::vector<Index> new_variable_at(h->variable_at.size());
+      std::vector<Index> new_position_of(h->position_of.size());
+      REQUIRE(h->chol.affectedTopSize() >= 1);
+      const lslam::Status s = h->chol.factorizeReordered(
+          h->source, ordering, last.data(), static_cast<Index>(last.size()), h->variable_at.data(),
+          new_variable_at.data(), new_position_of.data());
+      REQUIRE(s == lslam::Status::Ok);
+      h->chol.commit();
+      h->source.commit();
+      h->variable_at = new_variable_at;
+      h->position_of = new_position_of;
+      ++reordered_updates;
+      // The new variable is last, so the next odometry step touches the last columns only.
+      CHECK(h->variable_at.back() == v);
+      std::vector<Index> sorted = h->variable_at;
+      std::sort(sorted.begin(), sorted.end());
+      for (Index i = 0; i <= v; ++i) REQUIRE(sorted[i] == i);  // a permutation
+      checkAgainstDense(h->chol, h->source, h->variable_at);
+      // A plain update in the new order must still work on the relabelled factor.
+      if (coin(rng) == 0 && v > 3) {
+        const Index a = std::uniform_int_distribution<Index>(1, v)(rng);
+        h->source.addFactor(a - 1, a, rng);
+        REQUIRE(h->update(0, {{a - 1, a}}) == lslam::Status::Ok);
+        checkAgainstDense(h->chol, h->source, h->variable_at);
+      }
+    }
+    CHECK(reordered_updates == 60);
+  }
 }

@@ -68,7 +68,9 @@ double maxPositionDiff(const Estimate2D& a, const Estimate2D& b) {
 
 }  // namespace
 
-TEST_CASE("incremental estimate tracks the batch optimum on random synthetic graphs") {
+namespace {
+
+void checkTracksBatch(bool reorder_affected_top) {
   for (std::uint32_t seed = 1; seed <= 12; ++seed) {
     CAPTURE(seed);
     SyntheticOptions o;
@@ -81,6 +83,8 @@ TEST_CASE("incremental estimate tracks the batch optimum on random synthetic gra
     options.backsubstitution_tolerance = 1e-9;
     options.reorder_min_variables = 20;  // exercise reordering on small graphs too
     options.reorder_path_columns = 30;
+    options.reorder_affected_top = reorder_affected_top;
+    options.reorder_top_min_columns = 4;
     auto solver = std::make_unique<SmallSolver>(options);
     Estimate2D initial;
     for (std::size_t s = 0; s < steps.size(); ++s) {
@@ -97,6 +101,16 @@ TEST_CASE("incremental estimate tracks the batch optimum on random synthetic gra
       CHECK(maxPositionDiff(inc, batch.poses) < 0.02);
     }
   }
+}
+
+}  // namespace
+
+TEST_CASE("incremental estimate tracks the batch optimum on random synthetic graphs") {
+  checkTracksBatch(false);
+}
+
+TEST_CASE("with reordered updates of the affected top, too") {
+  checkTracksBatch(true);
 }
 
 TEST_CASE("optimize() reaches the batch optimum") {

@@ -4,32 +4,10 @@
 #include <cmath>
 #include <cstring>
 
+#include "rows_after_collector.h"
+
 namespace lslam {
 namespace {
-
-// Adds the positions of a variable's neighbours that come after column k to a row list, once each.
-class RowsAfterCollector final : public NeighbourVisitor {
- public:
-  RowsAfterCollector(const Index* position_of, Index k, std::uint32_t* mark, std::uint32_t id,
-                     Index* out)
-      : position_of_(position_of), k_(k), mark_(mark), id_(id), out_(out) {}
-  void visit(Index variable) override {
-    const Index r = position_of_[variable];
-    if (r > k_ && mark_[r] != id_) {
-      mark_[r] = id_;
-      out_[count_++] = r;
-    }
-  }
-  Index count() const { return count_; }
-
- private:
-  const Index* position_of_;
-  Index k_;
-  std::uint32_t* mark_;
-  std::uint32_t id_;
-  Index* out_;
-  Index count_ = 0;
-};
 
 // Lower Cholesky factor of a small SPD block, inverted: returns false on a pivot that is not
 // positive and finite (never clamped: a bad pivot means the problem is not positive definite).
@@ -89,6 +67,7 @@ void IncrementalCholesky<D>::beginUpdate(Index new_columns, bool full_refactor) 
   heap_size_ = 0;
   affected_count_ = 0;
   full_ = full_refactor;
+  reordered_ = false;
   stats_ = FactorizationStats{};
   if (full_) {
     for (Index k = 0; k < staged_columns_; ++k) queue(k);
@@ -211,11 +190,24 @@ Status IncrementalCholesky<D>::buildStructure(Index k, const InformationSource<D
       rows[count++] = old_rows[i];
     }
   }
-  RowsAfterCollector collector(position_of, k, a_.mark, id, rows + count);
+  detail::RowsAfterCollector collector(position_of, k, a_.mark, id, rows + count);
   source.visitNeighbours(variable_at[k], collector);
   count += collector.count();
   // Fill from the affected children: struct(k) contains struct(child) \ {k}. Unaffected
   // children's contributions are already in the old structure.
+  count = addChildrenFill(k, id, rows, count);
+  const Status s = stageStructure(k, rows, count);
+  if (s != Status::Ok) return s;
+  if (count > 0) {
+    queue(rows[0]);  // the parent is affected too (queueing first: it resets its child list)
+    linkStagedChild(k, rows[0]);
+  }
+  return Status::Ok;
+}
+
+// Adds the rows of k's staged children below k (their structure minus k) to a row list.
+template <int D>
+Index IncrementalCholesky<D>::addChildrenFill(Index k, std::uint32_t id, Index* rows, Index count) {
   for (Index c = a_.child_head[k]; c != kNoIndex; c = a_.child_next[c]) {
     const Index* child_rows = a_.rows + a_.staged_start[c];
     for (Index i = 2; i < a_.staged_count[c]; ++i) {  // [0] is c, [1] is k itself
@@ -226,6 +218,12 @@ Status IncrementalCholesky<D>::buildStructure(Index k, const InformationSource<D
       }
     }
   }
+  return count;
+}
+
+// Writes column k's structure (k, then `rows` sorted) to the pool tail.
+template <int D>
+Status IncrementalCholesky<D>::stageStructure(Index k, Index* rows, Index count) {
   std::sort(rows, rows + count);
   if (pool_end_ + count + 1 > a_.max_blocks) return Status::CapacityExhausted;
   a_.staged_start[k] = pool_end_;
@@ -233,13 +231,14 @@ Status IncrementalCholesky<D>::buildStructure(Index k, const InformationSource<D
   a_.rows[pool_end_] = k;
   std::memcpy(a_.rows + pool_end_ + 1, rows, sizeof(Index) * static_cast<std::size_t>(count));
   pool_end_ += count + 1;
-  if (count > 0) {
-    const Index parent = rows[0];
-    queue(parent);
-    a_.child_next[k] = a_.child_head[parent];
-    a_.child_head[parent] = k;
-  }
   return Status::Ok;
+}
+
+// Links k as a staged child of its parent, so that the parent's structure picks up k's fill.
+template <int D>
+void IncrementalCholesky<D>::linkStagedChild(Index k, Index parent) {
+  a_.child_next[k] = a_.child_head[parent];
+  a_.child_head[parent] = k;
 }
 
 template <int D>
@@ -318,6 +317,10 @@ void IncrementalCholesky<D>::scatter(const Index* rows, const Block* blocks, Ind
 template <int D>
 void IncrementalCholesky<D>::commit() {
   LSLAM_ASSERT(in_update_);
+  if (reordered_) {
+    commitReordered();
+    return;
+  }
   const Index old_n = n_;
   // New columns start with no children; their children (earlier columns) link in below.
   for (Index k = old_n; k < staged_columns_; ++k) a_.first_child[k] = kNoIndex;
@@ -357,6 +360,7 @@ void IncrementalCholesky<D>::rollback() {
   pool_end_ = pool_mark_;
   staged_columns_ = n_;
   affected_count_ = 0;
+  reordered_ = false;
   in_update_ = false;
 }
 

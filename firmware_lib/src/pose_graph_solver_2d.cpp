@@ -1,5 +1,6 @@
 #include "lslam/solver/pose_graph_solver_2d.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "lslam/factors/information.h"
@@ -34,7 +35,10 @@ PoseGraphSolver2D::PoseGraphSolver2D(const SolverArrays& arrays, const PoseGraph
       ordering_(ordering),
       ids_(ids),
       options_(options) {
-  for (Index v = 0; v < graph_.maxVariables(); ++v) a_.relinearize_flag[v] = 0;
+  for (Index v = 0; v < graph_.maxVariables(); ++v) {
+    a_.relinearize_flag[v] = 0;
+    a_.in_last[v] = 0;
+  }
 }
 
 Status PoseGraphSolver2D::validate(const PoseInput* poses, Index num_poses,
@@ -133,7 +137,8 @@ bool PoseGraphSolver2D::wantsReorder(Index new_variables) const {
   if (blocks_at_last_order_ == 0) return true;
   return cholesky_.liveBlocks() >
              static_cast<Index>(options_.reorder_growth * blocks_at_last_order_) ||
-         last_columns_refactored_ > options_.reorder_path_columns;
+         (options_.reorder_path_columns > 0 &&
+          last_columns_refactored_ > options_.reorder_path_columns);
 }
 
 // COLAMD on the factor-variable incidence of every variable except the newest committed one,
@@ -245,12 +250,15 @@ Status PoseGraphSolver2D::refactor(Index new_poses, Index relinearized, bool all
       position_of[v] = v;
     }
   }
-  const Status s = factorizeWithRetry(full, new_poses, variable_at, position_of, relinearized, r);
+  bool top_reordered = false;
+  const Status s = factorizeWithRetry(full, allow_reorder, new_poses, variable_at, position_of,
+                                      relinearized, &top_reordered, r);
   if (s != Status::Ok) {
     graph_.rollback();
     r.status = s;
     return s;
   }
+  if (top_reordered) buffer = 1 - active_;  // the reordered update wrote the other buffer
   graph_.commit();
   active_ = buffer;
   for (Index i = 0; i < relinearized; ++i) a_.delta[a_.marked[i]].setZero();
@@ -261,6 +269,7 @@ Status PoseGraphSolver2D::refactor(Index new_poses, Index relinearized, bool all
   if (full) blocks_at_last_order_ = cholesky_.liveBlocks();
   last_columns_refactored_ = full ? 0 : stats.columns_recomputed;
   r.reordered = full;
+  r.top_reordered = top_reordered;
   r.variables_relinearized = relinearized;
   r.columns_refactored = stats.columns_recomputed;
   r.block_products = stats.block_products;
@@ -268,23 +277,77 @@ Status PoseGraphSolver2D::refactor(Index new_poses, Index relinearized, bool all
   return Status::Ok;
 }
 
-Status PoseGraphSolver2D::factorizeWithRetry(bool full, Index new_columns, const Index* variable_at,
-                                             const Index* position_of, Index relinearized,
+Status PoseGraphSolver2D::factorizeWithRetry(bool full, bool allow_top_reorder, Index new_columns,
+                                             const Index* variable_at, const Index* position_of,
+                                             Index relinearized, bool* top_reordered,
                                              UpdateResult& r) {
   for (int attempt = 0;; ++attempt) {
-    cholesky_.beginUpdate(new_columns, full);
-    if (!full) markAffectedColumns(position_of, relinearized);
-    const Status s = cholesky_.factorize(graph_, variable_at, position_of);
-    if (s == Status::Ok) {
-      cholesky_.commit();
-      return s;
-    }
-    cholesky_.rollback();
+    const Status s = factorizeOnce(full, allow_top_reorder, new_columns, variable_at, position_of,
+                                   relinearized, top_reordered);
+    if (s == Status::Ok) return s;
     // A full pool is often only garbage left by earlier updates: squeeze it out and try once more.
     if (s != Status::CapacityExhausted || attempt > 0) return s;
     cholesky_.compact();
     r.compacted = true;
   }
+}
+
+// One attempt: a full refactorization, a reordered update of the affected top, or the plain
+// update in the current order. The reordered update writes the new order to the inactive buffer.
+Status PoseGraphSolver2D::factorizeOnce(bool full, bool allow_top_reorder, Index new_columns,
+                                        const Index* variable_at, const Index* position_of,
+                                        Index relinearized, bool* top_reordered) {
+  *top_reordered = false;
+  cholesky_.beginUpdate(new_columns, full);
+  if (!full) markAffectedColumns(position_of, relinearized);
+  if (!full && allow_top_reorder && options_.reorder_affected_top &&
+      cholesky_.affectedTopSize() - new_columns >= options_.reorder_top_min_columns) {
+    const int other = 1 - active_;
+    const Index num_last = collectLastColumns(position_of, new_columns);
+    const Status s =
+        cholesky_.factorizeReordered(graph_, ordering_, a_.last_list, num_last, variable_at,
+                                     a_.variable_at[other], a_.position_of[other]);
+    if (s == Status::Ok) {
+      cholesky_.commit();
+      *top_reordered = true;
+      return s;
+    }
+    cholesky_.rollback();
+    // No ordering workspace for this top: the plain update below still works.
+    if (s != Status::WorkspaceExhausted) return s;
+    cholesky_.beginUpdate(new_columns, false);
+    markAffectedColumns(position_of, relinearized);
+  }
+  const Status s = cholesky_.factorize(graph_, variable_at, position_of);
+  if (s == Status::Ok) {
+    cholesky_.commit();
+  } else {
+    cholesky_.rollback();
+  }
+  return s;
+}
+
+// The columns a reordered update keeps last: the existing variables of the new factors and the
+// newest existing pose (ascending), then the new poses, newest last, so that the next odometry
+// factor again touches only the last columns.
+Index PoseGraphSolver2D::collectLastColumns(const Index* position_of, Index new_columns) {
+  const Index first_new = cholesky_.columns();
+  Index count = 0;
+  auto add = [&](Index position) {
+    if (position < first_new && a_.in_last[position] == 0) {
+      a_.in_last[position] = 1;
+      a_.last_list[count++] = position;
+    }
+  };
+  for (Index f = first_new_factor_; f < graph_.factors(); ++f) {
+    add(position_of[graph_.firstVariable(f)]);
+    if (graph_.secondVariable(f) != kNoIndex) add(position_of[graph_.secondVariable(f)]);
+  }
+  if (first_new > 0) add(position_of[first_new - 1]);
+  std::sort(a_.last_list, a_.last_list + count);
+  for (Index i = 0; i < count; ++i) a_.in_last[a_.last_list[i]] = 0;
+  for (Index k = first_new; k < first_new + new_columns; ++k) a_.last_list[count++] = k;
+  return count;
 }
 
 void PoseGraphSolver2D::markAffectedColumns(const Index* position_of, Index relinearized) {

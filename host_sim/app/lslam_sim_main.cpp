@@ -33,6 +33,7 @@ int usage() {
                "                 [--csv STEPS.csv] [--out ESTIMATE.g2o] [--report REPORT.json]\n"
                "                 [--relinearize-threshold T] [--backsub-tolerance T]\n"
                "                 [--reorder-growth G] [--reorder-path COLUMNS]\n"
+               "                 [--reorder-top]\n"
                "       lslam-sim generate OUT.g2o [--poses N] [--seed S]\n");
   return 2;
 }
@@ -227,6 +228,8 @@ int main(int argc, char** argv) {
         args.solver.backsubstitution_tolerance = std::atof(argv[++i]);
       } else if (a == "--reorder-growth" && has_value) {
         args.solver.reorder_growth = std::atof(argv[++i]);
+      } else if (a == "--reorder-top") {
+        args.solver.reorder_affected_top = true;
       } else if (a == "--reorder-path" && has_value) {
         args.solver.reorder_path_columns = std::atoi(argv[++i]);
       } else {

@@ -34,6 +34,7 @@
 #include <cstdint>
 
 #include "lslam/eigen.h"
+#include "lslam/linear/colamd_ordering.h"
 #include "lslam/linear/index.h"
 #include "lslam/linear/information_source.h"
 #include "lslam/status.h"
@@ -73,6 +74,14 @@ struct CholeskyArrays {
   Index* child_next = nullptr;
   Index* row_list = nullptr;
   Index* scratch = nullptr;
+  // The reordered update (see factorizeReordered): old position -> new position, the affected
+  // columns in their new order, each affected column's rank in the affected set, and the cliques
+  // (old affected columns) that hold each affected variable, as compressed lists.
+  Index* new_position = nullptr;  // max_columns
+  Index* top_order = nullptr;     // max_columns
+  Index* rank_of = nullptr;       // max_columns
+  Index* clique_start = nullptr;  // max_columns + 1
+  Index* clique_entry = nullptr;  // max_blocks
 };
 
 // What one update did, for diagnostics.
@@ -108,6 +117,23 @@ class IncrementalCholesky {
                                  const Index* position_of);
   void commit();
   void rollback();
+
+  // --- a reordered update (iSAM2's re-elimination of the top of the tree) ---
+  // Instead of factorize(): the affected set A (the changed columns, their etree ancestors, and the
+  // new columns) is upward closed, so its Schur complement is exactly L_old(A,A) L_old(A,A)^T and
+  // no column outside A changes numerically. A is therefore reordered with COLAMD on the cliques of
+  // its old columns, keeping `last` (current positions, in that order: the variables of the new
+  // factors, the newest last) at the end, moved behind every other column, and refactorized from
+  // its Schur complement plus the change of Lambda. Columns outside A keep their values and
+  // relative order; their positions shift down. variable_at is the current order (new columns
+  // included); the new order goes to new_variable_at / new_position_of.
+  // Returns WorkspaceExhausted when the ordering workspace is too small (nothing changed: roll
+  // back and take the plain update).
+  Index affectedTopSize();
+  [[nodiscard]] Status factorizeReordered(const InformationSource<D>& source,
+                                          ColamdOrdering& ordering, const Index* last,
+                                          Index num_last, const Index* variable_at,
+                                          Index* new_variable_at, Index* new_position_of);
   const FactorizationStats& lastStats() const { return stats_; }
 
   // Moves the live columns to the front of the pool (no update may be in progress).
@@ -135,6 +161,9 @@ class IncrementalCholesky {
   Index stagedParent(Index k) const;
   [[nodiscard]] Status buildStructure(Index k, const InformationSource<D>& source,
                                       const Index* variable_at, const Index* position_of);
+  Index addChildrenFill(Index k, std::uint32_t id, Index* rows, Index count);
+  [[nodiscard]] Status stageStructure(Index k, Index* rows, Index count);
+  void linkStagedChild(Index k, Index parent);
   void startColumn(Index k, const InformationSource<D>& source, const Index* variable_at,
                    const Index* position_of);
   [[nodiscard]] Status finishColumn(Index k);
@@ -143,6 +172,15 @@ class IncrementalCholesky {
   void linkChild(Index parent, Index child);
   void unlinkChild(Index parent, Index child);
   void rebuildChildLists();
+  Index collectAffectedTop();
+  void buildCliqueIndex();
+  [[nodiscard]] Status orderAffectedTop(ColamdOrdering& ordering, const Index* last,
+                                        Index num_last);
+  [[nodiscard]] Status buildReorderedStructure(Index k, const InformationSource<D>& source,
+                                               const Index* new_variable_at,
+                                               const Index* new_position_of);
+  void addOldClique(Index j);
+  void commitReordered();
 
   CholeskyArrays<D> a_;
   Index n_ = 0;
@@ -155,6 +193,9 @@ class IncrementalCholesky {
   std::uint32_t stamp_ = 0;
   std::uint32_t mark_id_ = 0;
   bool full_ = false;
+  bool reordered_ = false;
+  Index top_size_ = 0;  // |A| of a reordered update
+  Index top_base_ = 0;  // the first new position of A
   bool in_update_ = false;
   FactorizationStats stats_;
 };
@@ -194,6 +235,11 @@ class StaticCholeskyStorage {
     a.child_next = child_next_;
     a.row_list = row_list_;
     a.scratch = scratch_;
+    a.new_position = new_position_;
+    a.top_order = top_order_;
+    a.rank_of = rank_of_;
+    a.clique_start = clique_start_;
+    a.clique_entry = clique_entry_;
     return a;
   }
 
@@ -221,6 +267,11 @@ class StaticCholeskyStorage {
   Index child_next_[MaxColumns];
   Index row_list_[MaxColumns];
   Index scratch_[MaxColumns];
+  Index new_position_[MaxColumns];
+  Index top_order_[MaxColumns];
+  Index rank_of_[MaxColumns];
+  Index clique_start_[MaxColumns + 1];
+  Index clique_entry_[MaxBlocks];
 };
 
 extern template class IncrementalCholesky<2>;

@@ -45,7 +45,9 @@ struct SolverArrays {
   Index* relinearize_list = nullptr;
   std::uint8_t* relinearize_flag = nullptr;
   Index* visited = nullptr;
-  Index* marked = nullptr;  // the variables relinearized by the update in progress
+  Index* marked = nullptr;          // the variables relinearized by the update in progress
+  Index* last_list = nullptr;       // positions kept last by a reordered update
+  std::uint8_t* in_last = nullptr;  // per position: already in last_list
 };
 
 class PoseGraphSolver2D {
@@ -95,8 +97,13 @@ class PoseGraphSolver2D {
   Index stageCandidates();
   Index stageEveryMovedVariable(double tolerance);
   Status refactor(Index new_poses, Index relinearized, bool allow_reorder, UpdateResult& result);
-  Status factorizeWithRetry(bool full, Index new_columns, const Index* variable_at,
-                            const Index* position_of, Index relinearized, UpdateResult& result);
+  Status factorizeWithRetry(bool full, bool allow_top_reorder, Index new_columns,
+                            const Index* variable_at, const Index* position_of, Index relinearized,
+                            bool* top_reordered, UpdateResult& result);
+  Status factorizeOnce(bool full, bool allow_top_reorder, Index new_columns,
+                       const Index* variable_at, const Index* position_of, Index relinearized,
+                       bool* top_reordered);
+  Index collectLastColumns(const Index* position_of, Index new_columns);
   void markAffectedColumns(const Index* position_of, Index relinearized);
   void noteRelinearizationCandidates(Index visited);
 
@@ -132,6 +139,8 @@ class SolverStorage2D {
   std::uint8_t relinearize_flag_[MaxPoses];
   Index visited_[MaxPoses];
   Index marked_[MaxPoses];
+  Index last_list_[MaxPoses];
+  std::uint8_t in_last_[MaxPoses];
 
   SolverArrays solverArrays() {
     SolverArrays s;
@@ -145,6 +154,8 @@ class SolverStorage2D {
     s.relinearize_flag = relinearize_flag_;
     s.visited = visited_;
     s.marked = marked_;
+    s.last_list = last_list_;
+    s.in_last = in_last_;
     return s;
   }
 };

@@ -19,8 +19,16 @@ struct SolverOptions {
   // Ordering policy (see README "Ordering policy"): the whole graph is reordered with COLAMD (the
   // newest variable last) when the factor has grown by this factor since the last ordering...
   double reorder_growth = 1.5;
-  // ...or when one update recomputed more than this many columns (a long etree path).
+  // ...or when one update recomputed more than this many columns (a long etree path; 0: off).
   Index reorder_path_columns = 200;
+  // Reordered updates (iSAM2's re-elimination of the top of the tree): when the affected part of
+  // an update holds at least this many existing columns, it is reordered with COLAMD, the
+  // variables of the new factors last, and refactorized from its Schur complement (no column
+  // outside it changes). Smaller updates (odometry) take the plain update in the current order.
+  // Off by default: measured slower than the plain update on manhattanOlson3500, intel and
+  // city10000 (README "Measured"), because the top it builds is a dense clique of 3x3 blocks.
+  bool reorder_affected_top = false;
+  Index reorder_top_min_columns = 8;
   // Never reorder graphs smaller than this (chronological order is optimal for a chain).
   Index reorder_min_variables = 50;
   // Information of the prior that anchors the very first pose when the caller gives none.
