@@ -156,7 +156,7 @@ Status IncrementalCholesky<D>::factorize(const InformationSource<D>& source,
     if (s != Status::Ok) return s;
   }
   // Numeric, right-looking over the affected columns only: each starts from its old value plus
-  // the change of Lambda, and receives the new-minus-old contributions of the affected columns
+  // the change of Lambda, and receives the updated-minus-old contributions of the affected columns
   // below it before it is factorized.
   for (Index i = 0; i < affected_count_; ++i) {
     startColumn(a_.affected[i], source, variable_at, position_of);
@@ -256,7 +256,7 @@ void IncrementalCholesky<D>::startColumn(Index k, const InformationSource<D>& so
   e.setZero();
   if (!full_ && k < n_) {
     // C_old(:,k) = L_old(:,k) L_old(k,k)^T and e_old = L_old(k,k) d_old: the column as it was
-    // before its pivot, on the old structure (a subset of the new one).
+    // before its pivot, on the old structure (a subset of the updated one).
     const Block& l = a_.diagonal[k];
     const Block l_t = l.transpose();
     const Index* old_rows = a_.rows + a_.start[k];
@@ -290,7 +290,8 @@ Status IncrementalCholesky<D>::finishColumn(Index k) {
 }
 
 // Sends column k's contribution -/+ L(r,k) L(s,k)^T (and -/+ L(s,k) d(k)) to every column s of its
-// structure: sign -1 for the new column, +1 to take back the old one. Every target is staged.
+// structure: sign -1 for the recomputed column, +1 to take back the old one. Every target is
+// staged.
 template <int D>
 void IncrementalCholesky<D>::scatter(const Index* rows, const Block* blocks, Index size,
                                      const Vector& d, double sign) {

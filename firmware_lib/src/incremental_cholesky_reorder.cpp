@@ -1,5 +1,5 @@
 // The reordered update of IncrementalCholesky: the affected top of the elimination tree is given a
-// new COLAMD order (the variables of the new factors last) and refactorized from its Schur
+// fresh COLAMD order (the variables of the added factors last) and refactorized from its Schur
 // complement, as iSAM2 re-eliminates the top of its Bayes tree. See factorizeReordered() in the
 // header for why nothing outside the affected set changes numerically.
 //
@@ -15,7 +15,7 @@
 
 namespace lslam {
 
-// A = the queued columns (changed and new) and all their ancestors in the current etree, sorted.
+// A = the queued columns (changed and added) and all their ancestors in the current etree, sorted.
 template <int D>
 Index IncrementalCholesky<D>::collectAffectedTop() {
   const std::uint32_t id = nextMark();
@@ -46,7 +46,7 @@ void IncrementalCholesky<D>::buildCliqueIndex() {
   for (Index r = 0; r <= top_size_; ++r) start[r] = 0;
   for (Index r = 0; r < top_size_; ++r) {
     const Index j = a_.affected[r];
-    if (j >= n_) continue;  // a new column has no old clique
+    if (j >= n_) continue;  // an added column has no old clique
     const Index* rows = a_.rows + a_.start[j];
     for (Index i = 0; i < a_.count[j]; ++i) ++start[a_.rank_of[rows[i]] + 1];
   }
@@ -61,7 +61,7 @@ void IncrementalCholesky<D>::buildCliqueIndex() {
   }
 }
 
-// The new order of A in top_order (current positions): COLAMD on the cliques for the free
+// The fresh order of A in top_order (current positions): COLAMD on the cliques for the free
 // variables, then `last` as given.
 template <int D>
 Status IncrementalCholesky<D>::orderAffectedTop(ColamdOrdering& ordering, const Index* last,
@@ -102,7 +102,7 @@ Status IncrementalCholesky<D>::orderAffectedTop(ColamdOrdering& ordering, const 
   return Status::Ok;
 }
 
-// Structure of the reordered column k (new position): the members after k of every old clique
+// Structure of the reordered column k (reordered position): the members after k of every old clique
 // holding its variable, its factor neighbours after k, and the fill of its children.
 template <int D>
 Status IncrementalCholesky<D>::buildReorderedStructure(Index k, const InformationSource<D>& source,
@@ -133,7 +133,8 @@ Status IncrementalCholesky<D>::buildReorderedStructure(Index k, const Informatio
 }
 
 // Adds old column j's share of the Schur complement on A, L(:,j) L(:,j)^T and L(:,j) d(j), to the
-// staged columns in the new order (its members sorted by new position, so each target is merged).
+// staged columns in the fresh order (its members sorted by reordered position, so each target is
+// merged).
 template <int D>
 void IncrementalCholesky<D>::addOldClique(Index j) {
   const Index size = a_.count[j];
@@ -177,7 +178,8 @@ Status IncrementalCholesky<D>::factorizeReordered(const InformationSource<D>& so
   LSLAM_ASSERT(in_update_ && !full_);
   const Status ordered = orderAffectedTop(ordering, last, num_last);
   if (ordered != Status::Ok) return ordered;
-  // New positions: the columns outside A keep their relative order, A follows in its new order.
+  // Reordered positions: the columns outside A keep their relative order, A follows in its fresh
+  // order.
   const Index total = staged_columns_;
   top_base_ = total - top_size_;
   Index next = 0;
@@ -195,7 +197,7 @@ Status IncrementalCholesky<D>::factorizeReordered(const InformationSource<D>& so
     new_position_of[variable_at[c]] = a_.new_position[c];
   }
   reordered_ = true;
-  // Symbolic, in the new order.
+  // Symbolic, in the fresh order.
   for (Index k = top_base_; k < total; ++k) a_.child_head[k] = kNoIndex;
   for (Index k = top_base_; k < total; ++k) {
     const Status s = buildReorderedStructure(k, source, new_variable_at, new_position_of);
@@ -228,8 +230,9 @@ Status IncrementalCholesky<D>::factorizeReordered(const InformationSource<D>& so
   return Status::Ok;
 }
 
-// Installs a reordered update: the columns outside A move down to their new positions with their
-// rows relabelled (the rows in A, always a suffix, re-sorted), and A's new columns go on top.
+// Installs a reordered update: the columns outside A move down to their reordered positions with
+// their rows relabelled (the rows in A, always a suffix, re-sorted), and A's recomputed columns go
+// on top.
 template <int D>
 void IncrementalCholesky<D>::commitReordered() {
   const Index old_n = n_;

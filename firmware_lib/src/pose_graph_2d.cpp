@@ -89,7 +89,7 @@ void PoseGraph2D::commit() {
 
 void PoseGraph2D::rollback() {
   LSLAM_ASSERT(in_update_);
-  // Unlink the new factors newest first: each was pushed at the head of its variables' lists.
+  // Unlink the added factors newest first: each was pushed at the head of its variables' lists.
   for (Index f = num_factors_ - 1; f >= committed_factors_; --f) {
     const Index second = a_.second_variable[f];
     if (second != kNoIndex) a_.first_entry[second] = a_.next_entry[a_.first_entry[second]];

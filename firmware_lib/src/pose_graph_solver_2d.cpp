@@ -83,14 +83,14 @@ Status PoseGraphSolver2D::validate(const PoseInput* poses, Index num_poses,
   return status;
 }
 
-// Every new pose must be tied to the existing graph (or to a prior) through this call's factors;
+// Every added pose must be tied to the existing graph (or to a prior) through this call's factors;
 // a pose floating free would make Lambda singular, and rounding could hide that from the pivots.
 Status PoseGraphSolver2D::checkAnchored(const PoseInput*, Index num_poses,
                                         const FactorInput* factors, Index num_factors) const {
   const Index first_new = graph_.variables();
   Index anchored = 0;
   bool progress = true;
-  // a_.visited is free scratch outside solve(): a flag per new pose. Few poses per call: the
+  // a_.visited is free scratch outside solve(): a flag per added pose. Few poses per call: the
   // repeated sweeps stay small.
   Index* is_anchored = a_.visited;
   for (Index i = 0; i < num_poses; ++i) is_anchored[i] = 0;
@@ -230,7 +230,7 @@ Index PoseGraphSolver2D::stageEveryMovedVariable(double tolerance) {
   return count;
 }
 
-// Factorizes the staged graph change (new poses at the end, relinearized variables in a_.marked),
+// Factorizes the staged graph change (added poses at the end, relinearized variables in a_.marked),
 // reordering first if the policy says so; commits everything or rolls the graph back.
 Status PoseGraphSolver2D::refactor(Index new_poses, Index relinearized, bool allow_reorder,
                                    UpdateResult& r) {
@@ -293,7 +293,7 @@ Status PoseGraphSolver2D::factorizeWithRetry(bool full, bool allow_top_reorder, 
 }
 
 // One attempt: a full refactorization, a reordered update of the affected top, or the plain
-// update in the current order. The reordered update writes the new order to the inactive buffer.
+// update in the current order. The reordered update writes the fresh order to the inactive buffer.
 Status PoseGraphSolver2D::factorizeOnce(bool full, bool allow_top_reorder, Index new_columns,
                                         const Index* variable_at, const Index* position_of,
                                         Index relinearized, bool* top_reordered) {
@@ -327,8 +327,8 @@ Status PoseGraphSolver2D::factorizeOnce(bool full, bool allow_top_reorder, Index
   return s;
 }
 
-// The columns a reordered update keeps last: the existing variables of the new factors and the
-// newest existing pose (ascending), then the new poses, newest last, so that the next odometry
+// The columns a reordered update keeps last: the existing variables of the added factors and the
+// newest existing pose (ascending), then the added poses, newest last, so that the next odometry
 // factor again touches only the last columns.
 Index PoseGraphSolver2D::collectLastColumns(const Index* position_of, Index new_columns) {
   const Index first_new = cholesky_.columns();

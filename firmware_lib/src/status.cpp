@@ -15,7 +15,7 @@ const char* toString(Status status) noexcept {
     case Status::DuplicateVariable:
       return "duplicate variable id";
     case Status::UnconstrainedVariable:
-      return "new variable is not constrained by any factor";
+      return "added variable is not constrained by any factor";
     case Status::CapacityExhausted:
       return "capacity exhausted";
     case Status::WorkspaceExhausted:

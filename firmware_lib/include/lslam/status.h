@@ -10,7 +10,7 @@ enum class Status : std::uint8_t {
   InformationNotPositiveDefinite,  // information matrix not symmetric positive definite
   UnknownVariable,                 // a factor refers to a variable that does not exist
   DuplicateVariable,               // a variable id that already exists
-  UnconstrainedVariable,           // a new variable that no factor of the step constrains
+  UnconstrainedVariable,           // an added variable that no factor of the step constrains
   CapacityExhausted,               // a compile-time capacity (variables, factors, blocks) is full
   WorkspaceExhausted,              // one update needs more than the per-update workspace holds
   NotPositiveDefinite,             // the factorization met a non-positive pivot

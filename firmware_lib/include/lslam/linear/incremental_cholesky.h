@@ -5,9 +5,9 @@
 // What an update recomputes. Column k of L depends only on column k of Lambda and on the columns in
 // its row subtree (the columns j < k with L(k, j) != 0, all descendants of k in the elimination
 // tree). When Lambda changes in a set S of columns, the columns of L that change are exactly the
-// ancestors of S in the (new) elimination tree, A: the paths from S to the root. Every other column
-// is bit-for-bit unchanged. With the newest variable last, an odometry step touches the last two
-// columns: constant work.
+// ancestors of S in the (updated) elimination tree, A: the paths from S to the root. Every other
+// column is bit-for-bit unchanged. With the newest variable last, an odometry step touches the last
+// two columns: constant work.
 //
 // How it recomputes them. Write C(:,k) = L(:,k) L(k,k)^T = Lambda(:,k) - sum_{j<k} L(:,j) L(k,j)^T,
 // the column before its pivot. Columns j outside A contribute the same before and after, so
@@ -15,7 +15,7 @@
 //                                                             - L_new(:,j) L_new(k,j)^T),
 // and the same for e = L(k,k) d(k) with eta. The update is therefore right-looking over A only:
 // each column of A starts from its old C (rebuilt from the old L, still in the pool, and the stored
-// diagonal factor), takes the change of Lambda, and once factorized sends its new contribution
+// diagonal factor), takes the change of Lambda, and once factorized sends its updated contribution
 // minus its old one to the columns of its structure, all of which are in A. The work is that of
 // factorizing A's columns alone (iSAM2's "top of the Bayes tree"), not their whole row subtrees.
 // A full refactorization (after a reordering) is the same loop with C started from Lambda.
@@ -74,8 +74,8 @@ struct CholeskyArrays {
   Index* child_next = nullptr;
   Index* row_list = nullptr;
   Index* scratch = nullptr;
-  // The reordered update (see factorizeReordered): old position -> new position, the affected
-  // columns in their new order, each affected column's rank in the affected set, and the cliques
+  // The reordered update (see factorizeReordered): old position -> reordered position, the affected
+  // columns in their fresh order, each affected column's rank in the affected set, and the cliques
   // (old affected columns) that hold each affected variable, as compressed lists.
   Index* new_position = nullptr;  // max_columns
   Index* top_order = nullptr;     // max_columns
@@ -120,13 +120,13 @@ class IncrementalCholesky {
 
   // --- a reordered update (iSAM2's re-elimination of the top of the tree) ---
   // Instead of factorize(): the affected set A (the changed columns, their etree ancestors, and the
-  // new columns) is upward closed, so its Schur complement is exactly L_old(A,A) L_old(A,A)^T and
+  // added columns) is upward closed, so its Schur complement is exactly L_old(A,A) L_old(A,A)^T and
   // no column outside A changes numerically. A is therefore reordered with COLAMD on the cliques of
-  // its old columns, keeping `last` (current positions, in that order: the variables of the new
+  // its old columns, keeping `last` (current positions, in that order: the variables of the added
   // factors, the newest last) at the end, moved behind every other column, and refactorized from
   // its Schur complement plus the change of Lambda. Columns outside A keep their values and
-  // relative order; their positions shift down. variable_at is the current order (new columns
-  // included); the new order goes to new_variable_at / new_position_of.
+  // relative order; their positions shift down. variable_at is the current order (added columns
+  // included); the fresh order goes to new_variable_at / new_position_of.
   // Returns WorkspaceExhausted when the ordering workspace is too small (nothing changed: roll
   // back and take the plain update).
   Index affectedTopSize();
@@ -194,8 +194,8 @@ class IncrementalCholesky {
   std::uint32_t mark_id_ = 0;
   bool full_ = false;
   bool reordered_ = false;
-  Index top_size_ = 0;  // |A| of a reordered update
-  Index top_base_ = 0;  // the first new position of A
+  Index top_size_ = 0;          // |A| of a reordered update
+  Index top_base_ = 0;          // the first reordered position of A
   bool in_update_ = false;
   FactorizationStats stats_;
 };

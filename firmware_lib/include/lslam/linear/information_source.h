@@ -47,9 +47,10 @@ class InformationSource {
   // position[variable]) and the variable's eta to `acc`.
   virtual void assembleColumn(Index variable, const Index* position,
                               ColumnAccumulator<D>& acc) const = 0;
-  // Adds only what changed in this update: for every factor of `variable` that is new or touches
-  // a relinearized variable, its contribution at the new linearization minus (for old factors) its
-  // contribution at the old one. Zero for a column no factor of which changed.
+  // Adds only what changed in this update: for every factor of `variable` that was added in this
+  // update or touches a relinearized variable, its contribution at the current linearization minus
+  // (for old factors) its contribution at the old one. Zero for a column no factor of which
+  // changed.
   virtual void assembleColumnChange(Index variable, const Index* position,
                                     ColumnAccumulator<D>& acc) const = 0;
 

@@ -58,8 +58,8 @@ class PoseGraphSolver2D {
   PoseGraphSolver2D(const PoseGraphSolver2D&) = delete;
   PoseGraphSolver2D& operator=(const PoseGraphSolver2D&) = delete;
 
-  // Adds new poses and measurements (each new pose must be tied to the graph by a measurement of
-  // this call, or by a prior), updates the factor and, by default, the solution.
+  // Adds poses and measurements (each added pose must be tied to the graph by a measurement
+  // of this call, or by a prior), updates the factor and, by default, the solution.
   [[nodiscard]] Status update(const PoseInput* poses, Index num_poses, const FactorInput* factors,
                               Index num_factors, UpdateResult* result = nullptr);
   // Back-substitution on demand (partial per options, or full).

@@ -23,7 +23,7 @@ struct SolverOptions {
   Index reorder_path_columns = 200;
   // Reordered updates (iSAM2's re-elimination of the top of the tree): when the affected part of
   // an update holds at least this many existing columns, it is reordered with COLAMD, the
-  // variables of the new factors last, and refactorized from its Schur complement (no column
+  // variables of the added factors last, and refactorized from its Schur complement (no column
   // outside it changes). Smaller updates (odometry) take the plain update in the current order.
   // Off by default: measured slower than the plain update on manhattanOlson3500, intel and
   // city10000 (README "Measured"), because the top it builds is a dense clique of 3x3 blocks.

@@ -23,7 +23,7 @@ class Line {
   Line& real(double value, int significant = 10) noexcept;
   // Fixed notation with `decimals` digits after the point (0..9), e.g. 9.68; |value| < 1e9.
   Line& fixed(double value, int decimals) noexcept;
-  // Writes the line with a newline and starts a new one.
+  // Writes the line with a newline and starts the next one.
   void print() noexcept;
 
  private:
