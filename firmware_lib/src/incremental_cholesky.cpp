@@ -68,6 +68,7 @@ void IncrementalCholesky<D>::beginUpdate(Index new_columns, bool full_refactor) 
   affected_count_ = 0;
   full_ = full_refactor;
   reordered_ = false;
+  top_collected_ = false;
   stats_ = FactorizationStats{};
   if (full_) {
     for (Index k = 0; k < staged_columns_; ++k) queue(k);
@@ -80,6 +81,7 @@ template <int D>
 void IncrementalCholesky<D>::markChanged(Index column) {
   LSLAM_ASSERT(in_update_ && column >= 0 && column < staged_columns_);
   queue(column);
+  top_collected_ = false;  // a collected affected set no longer covers every changed column
 }
 
 template <int D>

@@ -35,7 +35,9 @@ Index IncrementalCholesky<D>::collectAffectedTop() {
 template <int D>
 Index IncrementalCholesky<D>::affectedTopSize() {
   LSLAM_ASSERT(in_update_ && !full_);
-  return collectAffectedTop();
+  top_size_ = collectAffectedTop();
+  top_collected_ = true;
+  return top_size_;
 }
 
 // For every variable of A (by rank), the old columns of A whose clique ({j} and its structure, all
@@ -66,7 +68,8 @@ void IncrementalCholesky<D>::buildCliqueIndex() {
 template <int D>
 Status IncrementalCholesky<D>::orderAffectedTop(ColamdOrdering& ordering, const Index* last,
                                                 Index num_last) {
-  top_size_ = collectAffectedTop();
+  // affectedTopSize() has usually just collected A (the caller's policy asks for |A| first).
+  if (!top_collected_) top_size_ = collectAffectedTop();
   for (Index r = 0; r < top_size_; ++r) a_.rank_of[a_.affected[r]] = r;
   buildCliqueIndex();
   const std::uint32_t last_id = nextMark();

@@ -7,6 +7,8 @@
 #include <unordered_map>
 #include <unordered_set>
 
+#include "lslam/geometry/se2.h"
+
 namespace lslam::sim {
 
 namespace {
@@ -95,9 +97,9 @@ std::vector<Step> buildFile(const Dataset2D& d) {
   std::unordered_set<std::int64_t> known;
   if (d.edges.empty()) {
     if (d.vertices.empty()) return steps;
-    const auto smallest = std::min_element(
-        d.vertices.begin(), d.vertices.end(),
-        [](const Vertex2D& a, const Vertex2D& b) { return a.id < b.id; });
+    const auto smallest =
+        std::min_element(d.vertices.begin(), d.vertices.end(),
+                         [](const Vertex2D& a, const Vertex2D& b) { return a.id < b.id; });
     steps.push_back(Step{smallest->id, {}});
     known.insert(smallest->id);
   } else {
@@ -178,10 +180,14 @@ Pose2D relativePose(const Pose2D& xi, const Pose2D& xj) {
   return out;
 }
 
+// Through firmware_lib's SE2, so that firmware feeding the same stream (tests/target) starts every
+// pose from the same doubles without a copy of this arithmetic.
 Pose2D initialPoseFromEdge(const Edge2D& e, std::int64_t new_pose, const Pose2D& known_estimate) {
-  if (new_pose == e.to) return composeMeasurement(known_estimate, e.measurement);
-  if (new_pose == e.from) {
-    return composeMeasurement(known_estimate, invertMeasurement(e.measurement));
+  const SE2 known(known_estimate.x, known_estimate.y, known_estimate.theta);
+  const SE2 z(e.measurement.x, e.measurement.y, e.measurement.theta);
+  if (new_pose == e.to || new_pose == e.from) {
+    const SE2 pose = known.compose(new_pose == e.to ? z : z.inverse());
+    return Pose2D{pose.x(), pose.y(), pose.theta()};
   }
   throw std::invalid_argument("initialPoseFromEdge: pose " + std::to_string(new_pose) +
                               " is not an endpoint of edge " + edgeText(e));

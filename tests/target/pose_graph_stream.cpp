@@ -51,41 +51,14 @@ lslam::SolverOptions hostRunnerOptions() {
   return options;
 }
 
-Solver g_solver(hostRunnerOptions());  // in .bss: 2.6 MB of the board's 4 MB of RAM
+Solver g_solver(hostRunnerOptions());  // in .bss: 1.7 MB of the board's 4 MB of RAM
 StepCost g_costs[stream::kNumSteps];
 
-// ---- The host runner's initialisation of a new pose, operation for operation ----
-// host_sim/src/steps.cpp (composeMeasurement, invertMeasurement, wrapToPi) cannot be built here
-// (it throws and uses std::string); the same expressions in the same order give the same doubles,
-// so each pose starts where it started on the host.
-struct Pose {
-  double x, y, theta;
-};
-constexpr double kPi = 3.14159265358979323846;
-
-double wrapToPi(double theta) {
-  double r = std::remainder(theta, 2.0 * kPi);
-  if (r <= -kPi) r += 2.0 * kPi;
-  return r;
-}
-
-Pose compose(const Pose& xi, const Pose& z) {
-  const double c = std::cos(xi.theta);
-  const double s = std::sin(xi.theta);
-  return Pose{xi.x + c * z.x - s * z.y, xi.y + s * z.x + c * z.y, wrapToPi(xi.theta + z.theta)};
-}
-
-Pose invert(const Pose& z) {
-  const double c = std::cos(z.theta);
-  const double s = std::sin(z.theta);
-  return Pose{-(c * z.x + s * z.y), -(-s * z.x + c * z.y), wrapToPi(-z.theta)};
-}
-
 // The measurement as the solver sees it (with the test-only corruption, if built in).
-Pose measurement(std::int32_t factor) {
+lslam::SE2 measurement(std::int32_t factor) {
   const lslam::stream::StreamFactor& f = stream::kFactors[factor];
   const double bias = kPerturb && factor == kPerturbedFactor ? kPerturbation : 0.0;
-  return Pose{f.x + bias, f.y, f.theta};
+  return lslam::SE2(f.x + bias, f.y, f.theta);
 }
 
 lslam::Mat3 information(const lslam::stream::StreamFactor& f) {
@@ -97,31 +70,27 @@ lslam::Mat3 information(const lslam::stream::StreamFactor& f) {
 
 lslam::FactorInput factorInput(std::int32_t factor) {
   const lslam::stream::StreamFactor& f = stream::kFactors[factor];
-  const Pose z = measurement(factor);
   lslam::FactorInput input;
   input.kind = lslam::FactorKind::BetweenSE2;
   input.from = f.from;
   input.to = f.to;
-  input.measurement = lslam::SE2(z.x, z.y, z.theta);
+  input.measurement = measurement(factor);
   input.information = information(f);
   return input;
 }
 
-// The new pose of a step: the stream's first pose, or the current estimate of the other end of the
-// step's first measurement composed with that measurement.
+// The pose a step adds: the stream's first pose, or the current estimate of the other end of the
+// step's first measurement composed with that measurement (as host_sim's initialPoseFromEdge).
 bool initialPose(const lslam::stream::StreamStep& step, lslam::PoseInput* pose) {
   pose->id = step.new_pose;
-  Pose initial{stream::kFirstPose.x, stream::kFirstPose.y, stream::kFirstPose.theta};
-  if (step.factor_count > 0) {
-    const lslam::stream::StreamFactor& first = stream::kFactors[step.first_factor];
-    const std::int32_t known = first.from == step.new_pose ? first.to : first.from;
-    lslam::SE2 estimate;
-    if (g_solver.estimate(known, &estimate) != lslam::Status::Ok) return false;
-    const Pose z = measurement(step.first_factor);
-    const Pose base{estimate.x(), estimate.y(), estimate.theta()};
-    initial = step.new_pose == first.to ? compose(base, z) : compose(base, invert(z));
-  }
-  pose->initial = lslam::SE2(initial.x, initial.y, initial.theta);
+  pose->initial = lslam::SE2(stream::kFirstPose.x, stream::kFirstPose.y, stream::kFirstPose.theta);
+  if (step.factor_count == 0) return true;
+  const lslam::stream::StreamFactor& first = stream::kFactors[step.first_factor];
+  const std::int32_t known = first.from == step.new_pose ? first.to : first.from;
+  lslam::SE2 estimate;
+  if (g_solver.estimate(known, &estimate) != lslam::Status::Ok) return false;
+  const lslam::SE2 z = measurement(step.first_factor);
+  pose->initial = estimate.compose(step.new_pose == first.to ? z : z.inverse());
   return true;
 }
 
@@ -143,7 +112,8 @@ bool goesAlongX(const lslam::stream::StreamStep& step, const lslam::PoseInput& p
       lslam::Status::Ok) {
     return false;
   }
-  return std::fabs(start.theta()) < kPi / 4 && std::fabs(pose.initial.theta()) < kPi / 4;
+  constexpr double kQuarterTurn = 0.78539816339744830962;  // pi / 4
+  return std::fabs(start.theta()) < kQuarterTurn && std::fabs(pose.initial.theta()) < kQuarterTurn;
 }
 
 // One online step, timed as the host times it: update() and solve(), inputs prepared before.
@@ -178,8 +148,7 @@ double chi2G2o() {
         g_solver.estimate(f.to, &xj) != lslam::Status::Ok) {
       return NAN;
     }
-    const Pose z = measurement(k);
-    const lslam::Vec3 e = lslam::betweenErrorSE2(xi, xj, lslam::SE2(z.x, z.y, z.theta));
+    const lslam::Vec3 e = lslam::betweenErrorSE2(xi, xj, measurement(k));
     chi2 += e.dot(information(f) * e);
   }
   return chi2;
@@ -198,7 +167,7 @@ PoseDifference maxDifference(const lslam::stream::StreamPose* reference, std::in
     lslam::SE2 p;
     if (g_solver.estimate(r.id, &p) != lslam::Status::Ok) return PoseDifference{INFINITY, INFINITY};
     d.position = std::fmax(d.position, std::hypot(p.x() - r.x, p.y() - r.y));
-    d.angle = std::fmax(d.angle, std::fabs(wrapToPi(p.theta() - r.theta)));
+    d.angle = std::fmax(d.angle, std::fabs(lslam::wrapAngle(p.theta() - r.theta)));
   }
   return d;
 }

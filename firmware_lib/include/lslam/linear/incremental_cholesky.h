@@ -196,6 +196,7 @@ class IncrementalCholesky {
   bool reordered_ = false;
   Index top_size_ = 0;          // |A| of a reordered update
   Index top_base_ = 0;          // the first reordered position of A
+  bool top_collected_ = false;  // affectedTopSize() has filled `affected` in this update
   bool in_update_ = false;
   FactorizationStats stats_;
 };
