@@ -60,6 +60,23 @@ TEST_CASE("wrapAngle maps every angle into (-pi, pi] and keeps its direction") {
     const double a = inside(rng);
     if (a > -kPi) CHECK(wrapAngle(a) == a);  // angles already in range are returned untouched
   }
+  // Within 3 pi (sums of two wrapped angles) the result is exactly the IEEE remainder.
+  std::uniform_real_distribution<double> near(-3.0 * kPi, 3.0 * kPi);
+  for (int i = 0; i < 100000; ++i) {
+    const double a = near(rng);
+    double expected = std::remainder(a, 2.0 * kPi);
+    if (expected <= -kPi) expected += 2.0 * kPi;
+    CAPTURE(a);
+    CHECK(wrapAngle(a) == expected);
+  }
+  for (double edge : {kPi, -kPi, 3.0 * kPi, -3.0 * kPi}) {
+    for (double a : {std::nextafter(edge, 0.0), edge, std::nextafter(edge, 2.0 * edge)}) {
+      double expected = std::remainder(a, 2.0 * kPi);
+      if (expected <= -kPi) expected += 2.0 * kPi;
+      CAPTURE(a);
+      CHECK(wrapAngle(a) == expected);
+    }
+  }
   CHECK(wrapAngle(kPi) == kPi);
   CHECK(wrapAngle(-kPi) == kPi);
   CHECK(wrapAngle(0.0) == 0.0);

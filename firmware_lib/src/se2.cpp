@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "lslam/geometry/sin_cos.h"
+
 namespace lslam {
 namespace {
 
@@ -20,7 +22,7 @@ constexpr double kSeriesAngle = 0.3;
 // sin(w)/w
 double sinc(double w) noexcept {
   if (std::abs(w) < kTinyAngle) return 1.0 - w * w / 6.0;
-  return std::sin(w) / w;
+  return sinCos(w).sin / w;
 }
 
 // (1 - cos w)/w^2, formed as (1/2) sinc(w/2)^2: the direct 1 - cos w cancels for small w.
@@ -36,15 +38,16 @@ double sineDefectOverSquare(double w) noexcept {
     return w * (1.0 / 6.0 + w2 * (-1.0 / 120.0 +
                                   w2 * (1.0 / 5040.0 + w2 * (-1.0 / 362880.0 + w2 / 39916800.0))));
   }
-  return (w - std::sin(w)) / (w * w);
+  return (w - sinCos(w).sin) / (w * w);
 }
 
-// (w/2) cot(w/2): the scale of the inverse of the V matrix of Exp. Written as h / tan(h), which
-// stays accurate up to w = pi (tan(pi/2) is large but finite in floating point).
+// (w/2) cot(w/2): the scale of the inverse of the V matrix of Exp. Written as h cos(h) / sin(h),
+// which is accurate up to w = pi, where cos(h) goes to zero and sin(h) to one.
 double halfCotScale(double w) noexcept {
   const double h = 0.5 * w;
   if (std::abs(w) < kTinyAngle) return 1.0 - h * h / 3.0;
-  return h / std::tan(h);
+  const SinCos sc = sinCos(h);
+  return h * sc.cos / sc.sin;
 }
 
 // ((w/2) cot(w/2) - 1)/w, the translation coupling of the inverse right Jacobian.
@@ -71,6 +74,11 @@ Mat3 adjointOfInverse(double x, double y, double c, double s) noexcept {
 
 double wrapAngle(double angle) noexcept {
   if (angle > -kPi && angle <= kPi) return angle;  // the common case costs one comparison pair
+  // Sums and differences of two wrapped angles lie within 3 pi. There one shift by 2 pi is exact
+  // (Sterbenz: the operands are within a factor of two) and equals the IEEE remainder below, at
+  // a fixed cost: a heading that crosses the cut must not make a step dearer on the target.
+  if (angle > kPi && angle <= 3.0 * kPi) return angle - kTwoPi;
+  if (angle <= -kPi && angle > -3.0 * kPi) return angle + kTwoPi;
   // The IEEE remainder is exact and lies in [-pi, pi]; only -pi needs moving to the open end.
   double r = std::remainder(angle, kTwoPi);
   if (r <= -kPi) r += kTwoPi;
@@ -80,26 +88,30 @@ double wrapAngle(double angle) noexcept {
 SE2::SE2(double x, double y, double theta) noexcept : x_(x), y_(y), theta_(wrapAngle(theta)) {}
 
 Mat2 SE2::rotation() const noexcept {
-  const double c = std::cos(theta_);
-  const double s = std::sin(theta_);
+  const SinCos sc = sinCos(theta_);
+  const double c = sc.cos;
+  const double s = sc.sin;
   Mat2 r;
   r << c, -s, s, c;
   return r;
 }
 
 SE2 SE2::compose(const SE2& b, Mat3* J_c_a, Mat3* J_c_b) const noexcept {
-  const double c = std::cos(theta_);
-  const double s = std::sin(theta_);
+  const SinCos sc = sinCos(theta_);
+  const double c = sc.cos;
+  const double s = sc.sin;
   if (J_c_a != nullptr) {
-    *J_c_a = adjointOfInverse(b.x_, b.y_, std::cos(b.theta_), std::sin(b.theta_));
+    const SinCos b_sc = sinCos(b.theta_);
+    *J_c_a = adjointOfInverse(b.x_, b.y_, b_sc.cos, b_sc.sin);
   }
   if (J_c_b != nullptr) J_c_b->setIdentity();
   return SE2(x_ + c * b.x_ - s * b.y_, y_ + s * b.x_ + c * b.y_, theta_ + b.theta_);
 }
 
 SE2 SE2::inverse(Mat3* J_inv_a) const noexcept {
-  const double c = std::cos(theta_);
-  const double s = std::sin(theta_);
+  const SinCos sc = sinCos(theta_);
+  const double c = sc.cos;
+  const double s = sc.sin;
   if (J_inv_a != nullptr) {
     // -Ad(a): a right perturbation of a becomes a left one of a^-1, with the sign flipped.
     *J_inv_a << -c, s, -y_,  //
@@ -110,22 +122,25 @@ SE2 SE2::inverse(Mat3* J_inv_a) const noexcept {
 }
 
 SE2 SE2::between(const SE2& b, Mat3* J_d_a, Mat3* J_d_b) const noexcept {
-  const double c = std::cos(theta_);
-  const double s = std::sin(theta_);
+  const SinCos sc = sinCos(theta_);
+  const double c = sc.cos;
+  const double s = sc.sin;
   const double dx = b.x_ - x_;
   const double dy = b.y_ - y_;
   const SE2 d(c * dx + s * dy, -s * dx + c * dy, b.theta_ - theta_);
   if (J_d_a != nullptr) {
     // Exp(-tau) a^-1 b = d Exp(-Ad(d^-1) tau).
-    *J_d_a = -adjointOfInverse(d.x_, d.y_, std::cos(d.theta_), std::sin(d.theta_));
+    const SinCos d_sc = sinCos(d.theta_);
+    *J_d_a = -adjointOfInverse(d.x_, d.y_, d_sc.cos, d_sc.sin);
   }
   if (J_d_b != nullptr) J_d_b->setIdentity();
   return d;
 }
 
 Vec2 SE2::transformFrom(const Vec2& p_local, Mat23* J_p_a, Mat2* J_p_p) const noexcept {
-  const double c = std::cos(theta_);
-  const double s = std::sin(theta_);
+  const SinCos sc = sinCos(theta_);
+  const double c = sc.cos;
+  const double s = sc.sin;
   const double rx = c * p_local.x() - s * p_local.y();
   const double ry = s * p_local.x() + c * p_local.y();
   if (J_p_a != nullptr) {

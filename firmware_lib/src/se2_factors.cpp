@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "lslam/geometry/sin_cos.h"
+
 // Derivation. Write a pose as (t, R) and let J = [0 -1; 1 0], so that R(w) = I + w J to first
 // order. The residual pose is E = z^-1 xi^-1 xj with
 //   t_E = Rz^T (Ri^T (tj - ti) - tz),   theta_E = thj - thi - thz.
@@ -23,8 +25,9 @@ namespace {
 
 // [R(theta) 0; 0 1]
 Mat3 rotationBlock(double theta) noexcept {
-  const double c = std::cos(theta);
-  const double s = std::sin(theta);
+  const SinCos sc = sinCos(theta);
+  const double c = sc.cos;
+  const double s = sc.sin;
   Mat3 m;
   m << c, -s, 0.0,  //
       s, c, 0.0,    //
@@ -36,10 +39,12 @@ Mat3 rotationBlock(double theta) noexcept {
 
 Vec3 betweenErrorSE2(const SE2& xi, const SE2& xj, const SE2& z, Mat3* J_e_xi,
                      Mat3* J_e_xj) noexcept {
-  const double ci = std::cos(xi.theta());
-  const double si = std::sin(xi.theta());
-  const double cz = std::cos(z.theta());
-  const double sz = std::sin(z.theta());
+  const SinCos sci = sinCos(xi.theta());
+  const SinCos scz = sinCos(z.theta());
+  const double ci = sci.cos;
+  const double si = sci.sin;
+  const double cz = scz.cos;
+  const double sz = scz.sin;
   const double wx = xj.x() - xi.x();
   const double wy = xj.y() - xi.y();
   // d: translation of xi^-1 xj
@@ -60,8 +65,9 @@ Vec3 betweenErrorSE2(const SE2& xi, const SE2& xj, const SE2& z, Mat3* J_e_xi,
 }
 
 Vec3 priorErrorSE2(const SE2& x, const SE2& z, Mat3* J_e_x) noexcept {
-  const double cz = std::cos(z.theta());
-  const double sz = std::sin(z.theta());
+  const SinCos scz = sinCos(z.theta());
+  const double cz = scz.cos;
+  const double sz = scz.sin;
   const double ex = x.x() - z.x();
   const double ey = x.y() - z.y();
   const double e_theta = wrapAngle(x.theta() - z.theta());

@@ -6,6 +6,7 @@
 #include <cstdint>
 
 #include "lslam/eigen.h"
+#include "lslam/geometry/sin_cos.h"
 #include "lslam/linear/colamd_ordering.h"
 #include "lslam_target/instruction_counter.h"
 #include "target_checks.h"
@@ -83,6 +84,20 @@ bool counterIsCalibrated() {
   return t1 - t0 >= expected && t1 - t0 <= expected + 1;
 }
 
+// The project's fixed-cost sine and cosine against newlib's on this FPU, over a sweep of
+// headings both ways round (two ulps of 1, as on the host against glibc).
+bool sinCosMatchesLibm() {
+  constexpr int kSamples = 2001;
+  constexpr double kStep = 20.0 / (kSamples - 1);
+  for (int i = 0; i < kSamples; ++i) {
+    const double angle = -10.0 + i * kStep + 1e-3;
+    const lslam::SinCos sc = lslam::sinCos(angle);
+    if (std::fabs(sc.sin - std::sin(angle)) > 4.5e-16) return false;
+    if (std::fabs(sc.cos - std::cos(angle)) > 4.5e-16) return false;
+  }
+  return true;
+}
+
 }  // namespace
 
 int main() {
@@ -94,6 +109,7 @@ int main() {
   checks.expect(
       std::fabs(two - 2.0) < 1e-15 && std::fabs(std::sin(1.0) - 0.8414709848078965) < 1e-16,
       "double-precision FPU and libm");
+  checks.expect(sinCosMatchesLibm(), "lslam::sinCos agrees with newlib's sin and cos");
   checks.expect(choleskyWorks(), "fixed-size Eigen LLT");
   checks.expect(colamdWorks(), "COLAMD from source");
   checks.expect(counterIsCalibrated(), "SysTick counts one tick per 40 instructions");

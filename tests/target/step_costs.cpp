@@ -127,22 +127,41 @@ void printLoopClosureFit(const StepCost* costs, std::int32_t count, const char* 
       .print();
 }
 
-// First and last odometry step of those `along_x` selects (all of them, or those going along
-// +x), with (max - min) / median over them. Returns the median.
-double printOdometryRange(const StepCost* costs, std::int32_t count, bool only_along_x) {
+// Odometry: first, last, median, spread and the least-squares trend over the stream. The spread
+// is taken over the steps that back-substitute as many variables as the first one: the partial
+// back-substitution occasionally solves one more variable, which is more work, not drift.
+OdometryFigures printOdometry(const StepCost* costs, std::int32_t count) {
+  OdometryFigures figures;
   std::int32_t first = -1, last = -1, n = 0;
   for (std::int32_t s = 0; s < count && n < kMaxSteps; ++s) {
-    if (costs[s].kind != StepKind::Odometry || (only_along_x && !costs[s].along_x)) continue;
+    if (costs[s].kind != StepKind::Odometry) continue;
     if (first < 0) first = s;
     last = s;
     g_sorted[n++] = costs[s].instructions;
   }
-  if (n == 0) return 0.0;
+  if (n == 0) return figures;
   std::sort(g_sorted, g_sorted + n);
   const double median = static_cast<double>(g_sorted[n / 2]);
-  const auto percent = [median](double v) { return 100.0 * v / median; };
+  const double first_count = static_cast<double>(costs[first].instructions);
+  figures.first_to_last =
+      100.0 * (static_cast<double>(costs[last].instructions) - first_count) / first_count;
+  std::uint64_t min = ~std::uint64_t{0}, max = 0;
+  std::int32_t same_work = 0;
+  for (std::int32_t s = first; s <= last; ++s) {
+    if (costs[s].kind != StepKind::Odometry ||
+        costs[s].result.variables_solved != costs[first].result.variables_solved) {
+      continue;
+    }
+    min = std::min(min, costs[s].instructions);
+    max = std::max(max, costs[s].instructions);
+    ++same_work;
+  }
+  figures.spread = 100.0 * static_cast<double>(max - min) / static_cast<double>(min);
+  const Fit trend = fit(costs, count, StepKind::Odometry,
+                        [](std::int32_t s, const lslam::UpdateResult&) { return double(s); });
+  figures.trend = 100.0 * trend.slope * (last - first) / median;
   Line()
-      .text(only_along_x ? "odometry along +x (" : "odometry, all (")
+      .text("odometry (")
       .integer(n)
       .text(" steps): first (step ")
       .integer(first)
@@ -155,38 +174,18 @@ double printOdometryRange(const StepCost* costs, std::int32_t count, bool only_a
       .text(", median ")
       .integer(static_cast<long long>(median))
       .text("; last - first = ")
-      .fixed(percent(static_cast<double>(costs[last].instructions) -
-                     static_cast<double>(costs[first].instructions)),
-             2)
-      .text(" %, (max - min) / median = ")
-      .fixed(percent(static_cast<double>(g_sorted[n - 1] - g_sorted[0])), 2)
-      .text(" %")
-      .print();
-  return median;
-}
-
-// The odometry steps' ranges, and the trend: the change from the first to the last odometry step
-// of a straight line fitted to count against step index, relative to the median. Returns the
-// trend in percent.
-double printOdometry(const StepCost* costs, std::int32_t count) {
-  const double median = printOdometryRange(costs, count, false);
-  printOdometryRange(costs, count, true);
-  std::int32_t first = -1, last = -1;
-  for (std::int32_t s = 0; s < count; ++s) {
-    if (costs[s].kind != StepKind::Odometry) continue;
-    if (first < 0) first = s;
-    last = s;
-  }
-  if (first < 0 || median <= 0) return 0.0;
-  const Fit trend = fit(costs, count, StepKind::Odometry,
-                        [](std::int32_t s, const lslam::UpdateResult&) { return double(s); });
-  const double trend_percent = 100.0 * trend.slope * (last - first) / median;
-  Line()
-      .text("odometry trend (least squares over the stream, first to last step): ")
-      .fixed(trend_percent, 2)
+      .fixed(figures.first_to_last, 2)
+      .text(" %, (max - min) / min over the ")
+      .integer(same_work)
+      .text(" steps solving ")
+      .integer(costs[first].result.variables_solved)
+      .text(" variables = ")
+      .fixed(figures.spread, 2)
+      .text(" %, fitted trend = ")
+      .fixed(figures.trend, 2)
       .text(" % of the median")
       .print();
-  return trend_percent;
+  return figures;
 }
 
 void printWorstLoopClosure(const StepCost* costs, std::int32_t count) {
@@ -214,13 +213,13 @@ void printWorstLoopClosure(const StepCost* costs, std::int32_t count) {
 
 }  // namespace
 
-double printStepCosts(const StepCost* costs, std::int32_t count) {
+OdometryFigures printStepCosts(const StepCost* costs, std::int32_t count) {
   Line()
       .text("instructions per step (update + solve; QEMU -icount shift=0, resolution 40):")
       .print();
   for (std::int32_t s = 0; s < count; ++s) printStep(s, costs[s]);
   for (StepKind kind : kKinds) printSummary(costs, count, kind);
-  const double trend = printOdometry(costs, count);
+  const OdometryFigures odometry = printOdometry(costs, count);
   printWorstLoopClosure(costs, count);
-  return trend;
+  return odometry;
 }

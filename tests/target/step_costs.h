@@ -12,13 +12,17 @@ enum class StepKind : std::uint8_t { First, Reorder, Relinearization, LoopClosur
 struct StepCost {
   std::uint64_t instructions = 0;   // update() + solve(), resolution 40 instructions
   StepKind kind = StepKind::First;  // 0: an array of StepCost stays in .bss
-  bool along_x = false;             // starts and ends heading along +x (|theta| < pi/4)
   lslam::UpdateResult result;
 };
 
-// Prints every step, then per kind: count, min, median, mean, max; for odometry the first, last and
+// How constant the odometry steps are, in percent.
+struct OdometryFigures {
+  double first_to_last = 0.0;  // (last - first) / first
+  double spread = 0.0;         // (max - min) / min over the odometry steps of the same work
+  double trend = 0.0;          // least-squares line, first to last step, over the median
+};
+
+// Prints every step, then per kind: count, min, median, mean, max; for odometry the first, last,
 // spread and trend; for loop closures the worst step and least-squares fits of the count against
-// the work the solver reports (block products, columns refactored, variables solved). Returns the
-// odometry trend: the fitted change from the first to the last odometry step, in percent of the
-// median odometry step.
-double printStepCosts(const StepCost* costs, std::int32_t count);
+// the work the solver reports (block products, columns refactored, variables solved).
+OdometryFigures printStepCosts(const StepCost* costs, std::int32_t count);
