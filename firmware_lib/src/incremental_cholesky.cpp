@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "lower_triangular.h"
 #include "rows_after_collector.h"
 
 namespace lslam {
@@ -27,15 +28,7 @@ bool invertedCholesky(const Eigen::Matrix<double, D, D>& a, Eigen::Matrix<double
       l(i, j) = v / ljj;
     }
   }
-  // Forward substitution on the identity, column by column.
-  l_inv.setZero();
-  for (int c = 0; c < D; ++c) {
-    for (int i = c; i < D; ++i) {
-      double v = (i == c) ? 1.0 : 0.0;
-      for (int p = c; p < i; ++p) v -= l(i, p) * l_inv(p, c);
-      l_inv(i, c) = v / l(i, i);
-    }
-  }
+  l_inv = detail::invertLowerTriangular<D>(l);
   return true;
 }
 
@@ -69,6 +62,7 @@ void IncrementalCholesky<D>::beginUpdate(Index new_columns, bool full_refactor) 
   full_ = full_refactor;
   reordered_ = false;
   top_collected_ = false;
+  row_update_mark_ = 0;
   stats_ = FactorizationStats{};
   if (full_) {
     for (Index k = 0; k < staged_columns_; ++k) queue(k);

@@ -1,5 +1,6 @@
 #include "lslam/factors/pose_graph_2d.h"
 
+#include <Eigen/Cholesky>
 #include <cstring>
 
 #include "lslam/factors/se2_factors.h"
@@ -111,6 +112,34 @@ double PoseGraph2D::factorChi2(Index factor) const {
                         linearizationPoint(a_.second_variable[factor]), a_.measurement[factor]);
   }
   return e.dot(a_.information[factor] * e);
+}
+
+Index PoseGraph2D::whitenedRows(Index factor, const Index* position, Index* positions,
+                                Mat3* rows_transposed, Vec3* rhs) const {
+  // Omega = L L^T, so R = L^T; the information was checked positive definite on insert.
+  const Eigen::LLT<Mat3> llt(a_.information[factor]);
+  const Mat3 l = llt.matrixL();
+  const Index first = a_.first_variable[factor];
+  Vec3 e;
+  if (a_.kind[factor] == FactorKind::PriorSE2) {
+    Mat3 j;
+    e = priorErrorSE2(linearizationPoint(first), a_.measurement[factor], &j);
+    positions[0] = position[first];
+    rows_transposed[0] = j.transpose() * l;
+    *rhs = -(l.transpose() * e);
+    return 1;
+  }
+  const Index second = a_.second_variable[factor];
+  Mat3 j_first;
+  Mat3 j_second;
+  e = betweenErrorSE2(linearizationPoint(first), linearizationPoint(second), a_.measurement[factor],
+                      &j_first, &j_second);
+  positions[0] = position[first];
+  positions[1] = position[second];
+  rows_transposed[0] = j_first.transpose() * l;
+  rows_transposed[1] = j_second.transpose() * l;
+  *rhs = -(l.transpose() * e);
+  return 2;
 }
 
 void PoseGraph2D::visitNeighbours(Index variable, NeighbourVisitor& visitor) const {

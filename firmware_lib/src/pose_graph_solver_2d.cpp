@@ -195,11 +195,19 @@ Status PoseGraphSolver2D::update(const PoseInput* poses, Index num_poses,
       graph_.addBetween(ids_.find(in.from), ids_.find(in.to), in.measurement, in.information);
     }
   }
-  const Index relinearized = stageCandidates();
+  const bool relinearize_now =
+      updates_since_relinearization_ + 1 >= options_.relinearize_skip || wantsReorder(num_poses);
+  const Index relinearized = relinearize_now ? stageCandidates() : 0;
   s = refactor(num_poses, relinearized, true, r);
   if (s != Status::Ok) {
     forgetNewIds(poses, num_poses);
     return s;
+  }
+  if (relinearize_now) {
+    clearRelinearizationCandidates();
+    updates_since_relinearization_ = 0;
+  } else {
+    ++updates_since_relinearization_;
   }
   for (Index i = 0; i < num_poses; ++i) a_.id_of[graph_.variables() - num_poses + i] = poses[i].id;
   r.variables_added = num_poses;
@@ -263,8 +271,6 @@ Status PoseGraphSolver2D::refactor(Index new_poses, Index relinearized, bool all
   active_ = buffer;
   for (Index i = 0; i < relinearized; ++i) a_.delta[a_.marked[i]].setZero();
   for (Index v = n; v < n + new_poses; ++v) a_.delta[v].setZero();
-  for (Index i = 0; i < relinearize_count_; ++i) a_.relinearize_flag[a_.relinearize_list[i]] = 0;
-  relinearize_count_ = 0;
   const FactorizationStats& stats = cholesky_.lastStats();
   if (full) blocks_at_last_order_ = cholesky_.liveBlocks();
   last_columns_refactored_ = full ? 0 : stats.columns_recomputed;
@@ -299,6 +305,16 @@ Status PoseGraphSolver2D::factorizeOnce(bool full, bool allow_top_reorder, Index
                                         Index relinearized, bool* top_reordered) {
   *top_reordered = false;
   cholesky_.beginUpdate(new_columns, full);
+  if (!full && relinearized == 0 && options_.row_updates && reachesBack(position_of)) {
+    Status s = addRowsOfAddedFactors(position_of);
+    if (s == Status::Ok) s = cholesky_.finishRowUpdate();
+    if (s == Status::Ok) {
+      cholesky_.commit();
+    } else {
+      cholesky_.rollback();
+    }
+    return s;
+  }
   if (!full) markAffectedColumns(position_of, relinearized);
   if (!full && allow_top_reorder && options_.reorder_affected_top &&
       cholesky_.affectedTopSize() - new_columns >= options_.reorder_top_min_columns) {
@@ -350,6 +366,32 @@ Index PoseGraphSolver2D::collectLastColumns(const Index* position_of, Index new_
   return count;
 }
 
+// Whether an added factor touches a column before the newest committed one (a loop closure).
+// Only then is the path long enough for the row update to pay: an odometry step touches the last
+// two columns, and recomputing those is cheaper than whitening and rotating (on the Cortex-M7
+// about 6,100 against 9,000 instructions per step).
+bool PoseGraphSolver2D::reachesBack(const Index* position_of) const {
+  const Index newest_committed = cholesky_.columns() - 1;
+  for (Index f = first_new_factor_; f < graph_.factors(); ++f) {
+    if (position_of[graph_.firstVariable(f)] < newest_committed) return true;
+    const Index second = graph_.secondVariable(f);
+    if (second != kNoIndex && position_of[second] < newest_committed) return true;
+  }
+  return false;
+}
+
+Status PoseGraphSolver2D::addRowsOfAddedFactors(const Index* position_of) {
+  for (Index f = first_new_factor_; f < graph_.factors(); ++f) {
+    Index positions[2];
+    Mat3 rows[2];
+    Vec3 rhs;
+    const Index count = graph_.whitenedRows(f, position_of, positions, rows, &rhs);
+    const Status s = cholesky_.addFactorRows(positions, rows, count, rhs);
+    if (s != Status::Ok) return s;
+  }
+  return Status::Ok;
+}
+
 void PoseGraphSolver2D::markAffectedColumns(const Index* position_of, Index relinearized) {
   for (Index f = first_new_factor_; f < graph_.factors(); ++f) {
     cholesky_.markChanged(position_of[graph_.firstVariable(f)]);
@@ -372,6 +414,11 @@ void PoseGraphSolver2D::solve(bool full, UpdateResult* result) {
       a_.delta, variableAt(), options_.backsubstitution_tolerance, exact, a_.visited);
   noteRelinearizationCandidates(visited);
   if (result != nullptr) result->variables_solved = visited;
+}
+
+void PoseGraphSolver2D::clearRelinearizationCandidates() {
+  for (Index i = 0; i < relinearize_count_; ++i) a_.relinearize_flag[a_.relinearize_list[i]] = 0;
+  relinearize_count_ = 0;
 }
 
 void PoseGraphSolver2D::noteRelinearizationCandidates(Index visited) {
@@ -406,6 +453,7 @@ Status PoseGraphSolver2D::optimize(Index max_iterations, double tolerance, Updat
       r.status = s;
       return s;
     }
+    clearRelinearizationCandidates();
     solve(true, nullptr);
     r.iterations = it + 1;
     r.variables_relinearized += step.variables_relinearized;

@@ -31,9 +31,10 @@ int usage() {
   std::fprintf(stderr,
                "usage: lslam-sim run DATASET [--order online|file] [--solve-every N] [--json]\n"
                "                 [--csv STEPS.csv] [--out ESTIMATE.g2o] [--report REPORT.json]\n"
-               "                 [--relinearize-threshold T] [--backsub-tolerance T]\n"
+               "                 [--relinearize-threshold T] [--relinearize-skip N]\n"
+               "                 [--backsub-tolerance T]\n"
                "                 [--reorder-growth G] [--reorder-path COLUMNS]\n"
-               "                 [--reorder-top]\n"
+               "                 [--reorder-top] [--no-row-updates]\n"
                "       lslam-sim generate OUT.g2o [--poses N] [--seed S]\n");
   return 2;
 }
@@ -224,12 +225,16 @@ int main(int argc, char** argv) {
         args.report = argv[++i];
       } else if (a == "--relinearize-threshold" && has_value) {
         args.solver.relinearize_threshold = std::atof(argv[++i]);
+      } else if (a == "--relinearize-skip" && has_value) {
+        args.solver.relinearize_skip = static_cast<lslam::Index>(std::atol(argv[++i]));
       } else if (a == "--backsub-tolerance" && has_value) {
         args.solver.backsubstitution_tolerance = std::atof(argv[++i]);
       } else if (a == "--reorder-growth" && has_value) {
         args.solver.reorder_growth = std::atof(argv[++i]);
       } else if (a == "--reorder-top") {
         args.solver.reorder_affected_top = true;
+      } else if (a == "--no-row-updates") {
+        args.solver.row_updates = false;
       } else if (a == "--reorder-path" && has_value) {
         args.solver.reorder_path_columns = std::atoi(argv[++i]);
       } else {

@@ -68,6 +68,11 @@ class PoseGraph2D final : public InformationSource<3> {
 
   // Whitened squared error e^T Omega e of one factor at the given poses' linearization points.
   double factorChi2(Index factor) const;
+  // The factor linearized at the current points as whitened rows [A b] (Omega = R^T R, A = R J,
+  // b = -R e, so that A^T A and A^T b are its share of Lambda and eta): for each of its variables
+  // (returned count, at most 2) the column position and the block A_v^T, and b.
+  Index whitenedRows(Index factor, const Index* position, Index* positions, Mat3* rows_transposed,
+                     Vec3* rhs) const;
 
   void visitNeighbours(Index variable, NeighbourVisitor& visitor) const override;
   void assembleColumn(Index variable, const Index* position,

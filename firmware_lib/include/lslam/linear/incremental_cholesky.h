@@ -82,6 +82,8 @@ struct CholeskyArrays {
   Index* rank_of = nullptr;       // max_columns
   Index* clique_start = nullptr;  // max_columns + 1
   Index* clique_entry = nullptr;  // max_blocks
+  // The row update (see addFactorRows): the update rows' block at each column position.
+  Block* update_rows = nullptr;  // max_columns
 };
 
 // What one update did, for diagnostics.
@@ -136,6 +138,21 @@ class IncrementalCholesky {
                                           Index* new_variable_at, Index* new_position_of);
   const FactorizationStats& lastStats() const { return stats_; }
 
+  // --- a row update (a multiple-rank update of L, for factors added without relinearization) ---
+  // Instead of markChanged() + factorize(): when Lambda and eta change only by added factors, each
+  // added factor is whitened rows [A b] with Lambda += A^T A and eta += A^T b, and L is updated by
+  // orthogonal transformations of [L(:,k) A^T] column by column along the updated etree path of
+  // the factor's first column (Householder reflections; no old-column reconstruction, no
+  // subtraction of old contributions). A column of structure s costs O(s) block products here
+  // against O(s^2) in factorize(), which is what makes loop closures into a dense top cheap.
+  // The rows of one factor: `count` column positions (ascending not required) and, for each, the
+  // D x D block A_r^T (D rows of the factor, so a rank-D update), and the whitened right-hand side
+  // b. Added columns start empty; every one must receive rows before finishRowUpdate().
+  [[nodiscard]] Status addFactorRows(const Index* positions, const Block* rows_transposed,
+                                     Index count, const Vector& rhs);
+  // Ends the row updates of this update: NotPositiveDefinite if an added column received none.
+  [[nodiscard]] Status finishRowUpdate();
+
   // Moves the live columns to the front of the pool (no update may be in progress).
   void compact();
 
@@ -181,6 +198,8 @@ class IncrementalCholesky {
                                                const Index* new_position_of);
   void addOldClique(Index j);
   void commitReordered();
+  [[nodiscard]] Status rowUpdateColumn(Index k, const Index* pattern, Index pattern_size,
+                                       Vector& rhs, Index& written_start);
 
   CholeskyArrays<D> a_;
   Index n_ = 0;
@@ -198,6 +217,7 @@ class IncrementalCholesky {
   Index top_base_ = 0;          // the first reordered position of A
   bool top_collected_ = false;  // affectedTopSize() has filled `affected` in this update
   bool in_update_ = false;
+  std::uint32_t row_update_mark_ = 0;  // a_.mark of the columns a row update staged (0: none)
   FactorizationStats stats_;
 };
 
@@ -241,6 +261,7 @@ class StaticCholeskyStorage {
     a.rank_of = rank_of_;
     a.clique_start = clique_start_;
     a.clique_entry = clique_entry_;
+    a.update_rows = update_rows_;
     return a;
   }
 
@@ -273,6 +294,7 @@ class StaticCholeskyStorage {
   Index rank_of_[MaxColumns];
   Index clique_start_[MaxColumns + 1];
   Index clique_entry_[MaxBlocks];
+  Block update_rows_[MaxColumns];
 };
 
 extern template class IncrementalCholesky<2>;

@@ -105,7 +105,10 @@ class PoseGraphSolver2D {
                        bool* top_reordered);
   Index collectLastColumns(const Index* position_of, Index new_columns);
   void markAffectedColumns(const Index* position_of, Index relinearized);
+  bool reachesBack(const Index* position_of) const;
+  [[nodiscard]] Status addRowsOfAddedFactors(const Index* position_of);
   void noteRelinearizationCandidates(Index visited);
+  void clearRelinearizationCandidates();
 
   SolverArrays a_;
   PoseGraph2D graph_;
@@ -119,6 +122,7 @@ class PoseGraphSolver2D {
   Index first_new_factor_ = 0;
   Index blocks_at_last_order_ = 0;
   Index last_columns_refactored_ = 0;
+  Index updates_since_relinearization_ = 0;
 };
 
 namespace detail {

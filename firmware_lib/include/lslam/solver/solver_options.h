@@ -10,6 +10,10 @@ struct SolverOptions {
   // solution delta moved more than this far from its linearization point (max-norm over x, y in
   // meters and theta in radians). iSAM2's usual value is 0.1; smaller stays closer to the optimum.
   double relinearize_threshold = 0.01;
+  // Relinearize only on every this many updates (and on every reordering, where it costs nothing
+  // extra), as iSAM2's relinearizeSkip: the variables past the threshold wait and are
+  // relinearized together, so the tree paths they share are recomputed once.
+  Index relinearize_skip = 1;
   // Partial back-substitution: a subtree of the elimination tree is not re-solved when nothing it
   // depends on moved by more than this (max-norm). 0 gives the exact solution of L^T x = d.
   double backsubstitution_tolerance = 1e-6;
@@ -21,6 +25,11 @@ struct SolverOptions {
   double reorder_growth = 1.5;
   // ...or when one update recomputed more than this many columns (a long etree path; 0: off).
   Index reorder_path_columns = 200;
+  // Updates that only add factors (no variable relinearized, no reordering) rotate the added
+  // factors' whitened rows into L along their etree paths (IncrementalCholesky::addFactorRows):
+  // O(s) work per column of structure s instead of O(s^2) for recomputing the column. Off: every
+  // update recomputes its columns (factorize()).
+  bool row_updates = true;
   // Reordered updates (iSAM2's re-elimination of the top of the tree): when the affected part of
   // an update holds at least this many existing columns, it is reordered with COLAMD, the
   // variables of the added factors last, and refactorized from its Schur complement (no column
