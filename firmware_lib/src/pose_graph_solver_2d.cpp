@@ -195,8 +195,9 @@ Status PoseGraphSolver2D::update(const PoseInput* poses, Index num_poses,
       graph_.addBetween(ids_.find(in.from), ids_.find(in.to), in.measurement, in.information);
     }
   }
-  const bool relinearize_now =
-      updates_since_relinearization_ + 1 >= options_.relinearize_skip || wantsReorder(num_poses);
+  const bool relinearize_now = relinearization_urgent_ || wantsReorder(num_poses) ||
+                               (options_.relinearize_skip > 0 &&
+                                updates_since_relinearization_ + 1 >= options_.relinearize_skip);
   const Index relinearized = relinearize_now ? stageCandidates() : 0;
   s = refactor(num_poses, relinearized, true, r);
   if (s != Status::Ok) {
@@ -419,6 +420,7 @@ void PoseGraphSolver2D::solve(bool full, UpdateResult* result) {
 void PoseGraphSolver2D::clearRelinearizationCandidates() {
   for (Index i = 0; i < relinearize_count_; ++i) a_.relinearize_flag[a_.relinearize_list[i]] = 0;
   relinearize_count_ = 0;
+  relinearization_urgent_ = false;
 }
 
 void PoseGraphSolver2D::noteRelinearizationCandidates(Index visited) {
@@ -426,9 +428,12 @@ void PoseGraphSolver2D::noteRelinearizationCandidates(Index visited) {
   for (Index i = 0; i < visited; ++i) {
     const Index v = variable_at[a_.visited[i]];
     if (a_.relinearize_flag[v] != 0) continue;
-    if (a_.delta[v].cwiseAbs().maxCoeff() > options_.relinearize_threshold) {
+    const double moved = a_.delta[v].cwiseAbs().maxCoeff();
+    if (moved > options_.relinearize_threshold) {
       a_.relinearize_flag[v] = 1;
       a_.relinearize_list[relinearize_count_++] = v;
+      relinearization_urgent_ =
+          relinearization_urgent_ || moved > options_.relinearize_urgent_threshold;
     }
   }
 }

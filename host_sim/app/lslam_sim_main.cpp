@@ -32,6 +32,7 @@ int usage() {
                "usage: lslam-sim run DATASET [--order online|file] [--solve-every N] [--json]\n"
                "                 [--csv STEPS.csv] [--out ESTIMATE.g2o] [--report REPORT.json]\n"
                "                 [--relinearize-threshold T] [--relinearize-skip N]\n"
+               "                 [--relinearize-urgent T]\n"
                "                 [--backsub-tolerance T]\n"
                "                 [--reorder-growth G] [--reorder-path COLUMNS]\n"
                "                 [--reorder-top] [--no-row-updates]\n"
@@ -225,6 +226,8 @@ int main(int argc, char** argv) {
         args.report = argv[++i];
       } else if (a == "--relinearize-threshold" && has_value) {
         args.solver.relinearize_threshold = std::atof(argv[++i]);
+      } else if (a == "--relinearize-urgent" && has_value) {
+        args.solver.relinearize_urgent_threshold = std::atof(argv[++i]);
       } else if (a == "--relinearize-skip" && has_value) {
         args.solver.relinearize_skip = static_cast<lslam::Index>(std::atol(argv[++i]));
       } else if (a == "--backsub-tolerance" && has_value) {

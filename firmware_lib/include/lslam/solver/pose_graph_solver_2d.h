@@ -123,6 +123,7 @@ class PoseGraphSolver2D {
   Index blocks_at_last_order_ = 0;
   Index last_columns_refactored_ = 0;
   Index updates_since_relinearization_ = 0;
+  bool relinearization_urgent_ = false;  // a waiting candidate passed the urgent threshold
 };
 
 namespace detail {
