@@ -244,7 +244,14 @@ Index PoseGraphSolver2D::stageEveryMovedVariable(double tolerance) {
 Status PoseGraphSolver2D::refactor(Index new_poses, Index relinearized, bool allow_reorder,
                                    UpdateResult& r) {
   const Index n = cholesky_.columns();
-  bool full = allow_reorder && wantsReorder(new_poses);
+  // A relinearization of a large share of the variables recomputes most columns anyway, at twice
+  // the cost of factorizing them afresh (old contributions are subtracted): a full reordering and
+  // refactorization is then cheaper, and leaves a fresh ordering (city10000: 4,223 variables
+  // relinearized took 62 ms in place, a full refactorization of the same graph ~26 ms).
+  bool full = allow_reorder &&
+              (wantsReorder(new_poses) ||
+               (n >= options_.reorder_min_variables &&
+                relinearized > static_cast<Index>(options_.reorder_relinearized_share * n)));
   int buffer = active_;
   if (full) {
     buffer = 1 - active_;
