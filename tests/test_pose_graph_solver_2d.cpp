@@ -70,7 +70,15 @@ double maxPositionDiff(const Estimate2D& a, const Estimate2D& b) {
 
 namespace {
 
-void checkTracksBatch(bool reorder_affected_top) {
+// The update paths under test: the recomputing update alone, or with row updates for loop
+// closures; relinearization at every update, or batched (urgent threshold above the threshold).
+struct UpdatePaths {
+  bool reorder_affected_top = false;
+  bool row_updates = true;
+  bool batched_relinearization = true;
+};
+
+void checkTracksBatch(const UpdatePaths& paths) {
   for (std::uint32_t seed = 1; seed <= 12; ++seed) {
     CAPTURE(seed);
     SyntheticOptions o;
@@ -83,8 +91,10 @@ void checkTracksBatch(bool reorder_affected_top) {
     options.backsubstitution_tolerance = 1e-9;
     options.reorder_min_variables = 20;  // exercise reordering on small graphs too
     options.reorder_path_columns = 30;
-    options.reorder_affected_top = reorder_affected_top;
+    options.reorder_affected_top = paths.reorder_affected_top;
     options.reorder_top_min_columns = 4;
+    options.row_updates = paths.row_updates;
+    options.relinearize_urgent_threshold = paths.batched_relinearization ? 1e-2 : 1e-3;
     auto solver = std::make_unique<SmallSolver>(options);
     Estimate2D initial;
     for (std::size_t s = 0; s < steps.size(); ++s) {
@@ -106,11 +116,15 @@ void checkTracksBatch(bool reorder_affected_top) {
 }  // namespace
 
 TEST_CASE("incremental estimate tracks the batch optimum on random synthetic graphs") {
-  checkTracksBatch(false);
+  checkTracksBatch(UpdatePaths{});
+}
+
+TEST_CASE("with the recomputing update only and relinearization at every update, too") {
+  checkTracksBatch(UpdatePaths{false, false, false});
 }
 
 TEST_CASE("with reordered updates of the affected top, too") {
-  checkTracksBatch(true);
+  checkTracksBatch(UpdatePaths{true, true, true});
 }
 
 TEST_CASE("optimize() reaches the batch optimum") {
