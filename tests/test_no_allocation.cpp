@@ -26,27 +26,58 @@ void* countedAlloc(std::size_t size) {
   if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
   throw std::bad_alloc();
 }
+
+void* countedAlignedAlloc(std::size_t size, std::align_val_t alignment) {
+  if (g_counting.load()) ++g_allocations;
+  const std::size_t align = static_cast<std::size_t>(alignment);
+  // aligned_alloc wants a size that is a multiple of the alignment.
+  const std::size_t rounded = ((size == 0 ? 1 : size) + align - 1) / align * align;
+  if (void* p = std::aligned_alloc(align, rounded)) return p;
+  throw std::bad_alloc();
+}
+
+void countedFree(void* p) noexcept {
+  if (g_counting.load() && p != nullptr) ++g_allocations;
+  std::free(p);
+}
 }  // namespace
 
+// Every replaceable form, aligned ones included, so that no allocation can slip past the count.
 void* operator new(std::size_t size) {
   return countedAlloc(size);
 }
 void* operator new[](std::size_t size) {
   return countedAlloc(size);
 }
+void* operator new(std::size_t size, std::align_val_t alignment) {
+  return countedAlignedAlloc(size, alignment);
+}
+void* operator new[](std::size_t size, std::align_val_t alignment) {
+  return countedAlignedAlloc(size, alignment);
+}
 void operator delete(void* p) noexcept {
-  if (g_counting.load() && p != nullptr) ++g_allocations;
-  std::free(p);
+  countedFree(p);
 }
 void operator delete[](void* p) noexcept {
-  if (g_counting.load() && p != nullptr) ++g_allocations;
-  std::free(p);
+  countedFree(p);
 }
 void operator delete(void* p, std::size_t) noexcept {
-  operator delete(p);
+  countedFree(p);
 }
 void operator delete[](void* p, std::size_t) noexcept {
-  operator delete[](p);
+  countedFree(p);
+}
+void operator delete(void* p, std::align_val_t) noexcept {
+  countedFree(p);
+}
+void operator delete[](void* p, std::align_val_t) noexcept {
+  countedFree(p);
+}
+void operator delete(void* p, std::size_t, std::align_val_t) noexcept {
+  countedFree(p);
+}
+void operator delete[](void* p, std::size_t, std::align_val_t) noexcept {
+  countedFree(p);
 }
 
 using namespace lslam;
