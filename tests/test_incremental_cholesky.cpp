@@ -5,6 +5,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <memory>
+#include <numeric>
 #include <random>
 #include <set>
 #include <vector>
@@ -178,6 +179,14 @@ struct Harness {
     return touched;
   }
 
+  // Refactors every column from scratch in the current variable_at order (after a reordering).
+  void refactorFully() {
+    chol.beginUpdate(0, true);
+    REQUIRE(chol.factorize(source, variable_at.data(), position_of.data()) == lslam::Status::Ok);
+    chol.commit();
+    source.commit();
+  }
+
   lslam::Status update(Index new_vars, const std::vector<std::pair<Index, Index>>& touched) {
     chol.beginUpdate(new_vars, false);
     for (auto [a, b] : touched) {
@@ -234,11 +243,7 @@ TEST_CASE("full refactorization under a new ordering equals dense LLT of the per
     }
     std::shuffle(h->variable_at.begin(), h->variable_at.end(), rng);
     for (Index k = 0; k < 50; ++k) h->position_of[h->variable_at[k]] = k;
-    h->chol.beginUpdate(0, true);
-    REQUIRE(h->chol.factorize(h->source, h->variable_at.data(), h->position_of.data()) ==
-            lslam::Status::Ok);
-    h->chol.commit();
-    h->source.commit();
+    h->refactorFully();
     checkAgainstDense(h->chol, h->source, h->variable_at);
     // Compaction keeps every value.
     const Eigen::MatrixXd before = denseFactor(h->chol);
@@ -379,12 +384,17 @@ TEST_CASE("a reordered update of the affected top equals dense LLT in the new or
 namespace {
 
 // Adds a random factor on (a, b) to the source and, as rows, to the factor.
+lslam::Status addRandomRows(lslam::IncrementalCholesky<3>& chol, DenseSource& source,
+                            const Index* position_of, Index a, Index b, std::mt19937& rng) {
+  source.addFactor(a, b, rng);
+  const Index positions[2] = {position_of[a], position_of[b]};
+  const Block rows[2] = {source.last_j.leftCols<3>().transpose(),
+                         source.last_j.rightCols<3>().transpose()};
+  return chol.addFactorRows(positions, rows, 2, source.last_e);
+}
+
 lslam::Status addRows(Harness& h, Index a, Index b, std::mt19937& rng) {
-  h.source.addFactor(a, b, rng);
-  const Index positions[2] = {h.position_of[a], h.position_of[b]};
-  const Block rows[2] = {h.source.last_j.leftCols<3>().transpose(),
-                         h.source.last_j.rightCols<3>().transpose()};
-  return h.chol.addFactorRows(positions, rows, 2, h.source.last_e);
+  return addRandomRows(h.chol, h.source, h.position_of.data(), a, b, rng);
 }
 
 }  // namespace
@@ -431,10 +441,7 @@ TEST_CASE(
       if (v == 30) {  // a reordering, after which row updates go on in the new order
         std::shuffle(h->variable_at.begin(), h->variable_at.end() - 1, rng);
         for (Index k = 0; k <= v; ++k) h->position_of[h->variable_at[k]] = k;
-        h->chol.beginUpdate(0, true);
-        REQUIRE(h->chol.factorize(h->source, h->variable_at.data(), h->position_of.data()) ==
-                lslam::Status::Ok);
-        h->chol.commit();
+        h->refactorFully();
         checkAgainstDense(h->chol, h->source, h->variable_at);
       }
     }
@@ -483,12 +490,11 @@ TEST_CASE("row update: an added column without rows and a full pool are reported
     lslam::IncrementalCholesky<3> chol(storage->arrays());
     DenseSource source;
     std::vector<Index> order;
+    // The order stays chronological: positions are the variables themselves.
+    std::vector<Index> identity(40);
+    std::iota(identity.begin(), identity.end(), Index{0});
     auto rows = [&](Index a, Index b) {
-      source.addFactor(a, b, rng);
-      const Index positions[2] = {a, b};
-      const Block blocks[2] = {source.last_j.leftCols<3>().transpose(),
-                               source.last_j.rightCols<3>().transpose()};
-      return chol.addFactorRows(positions, blocks, 2, source.last_e);
+      return addRandomRows(chol, source, identity.data(), a, b, rng);
     };
     source.addVariable();
     source.addPrior(0);

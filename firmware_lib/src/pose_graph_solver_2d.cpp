@@ -129,16 +129,23 @@ void PoseGraphSolver2D::forgetNewIds(const PoseInput* poses, Index num_poses) {
   for (Index i = num_poses - 1; i >= 0; --i) ids_.eraseNewest(poses[i].id);
 }
 
-// Reorder when the factor has grown well past what the last ordering produced, or when the last
-// update had to walk a long elimination-tree path (a loop closure far back in the order).
-bool PoseGraphSolver2D::wantsReorder(Index new_variables) const {
+// Reorder when the factor has grown well past what the last ordering produced, when the last
+// update had to walk a long elimination-tree path (a loop closure far back in the order), or when
+// this update relinearizes a large share of the variables: that recomputes most columns anyway, at
+// twice the cost of factorizing them afresh (old contributions are subtracted), so a full
+// reordering and refactorization is cheaper and leaves a fresh ordering (city10000: 4,223
+// variables relinearized took 62 ms in place, a full refactorization of the same graph ~26 ms).
+bool PoseGraphSolver2D::wantsReorder(Index new_variables, Index relinearized) const {
   const Index n = graph_.variables() + new_variables;
   if (n < options_.reorder_min_variables) return false;
   if (blocks_at_last_order_ == 0) return true;
+  const Index committed = cholesky_.columns();
   return cholesky_.liveBlocks() >
              static_cast<Index>(options_.reorder_growth * blocks_at_last_order_) ||
          (options_.reorder_path_columns > 0 &&
-          last_columns_refactored_ > options_.reorder_path_columns);
+          last_columns_refactored_ > options_.reorder_path_columns) ||
+         (committed >= options_.reorder_min_variables &&
+          relinearized > static_cast<Index>(options_.reorder_relinearized_share * committed));
 }
 
 // COLAMD on the factor-variable incidence of every variable except the newest committed one,
@@ -195,7 +202,7 @@ Status PoseGraphSolver2D::update(const PoseInput* poses, Index num_poses,
       graph_.addBetween(ids_.find(in.from), ids_.find(in.to), in.measurement, in.information);
     }
   }
-  const bool relinearize_now = relinearization_urgent_ || wantsReorder(num_poses) ||
+  const bool relinearize_now = relinearization_urgent_ || wantsReorder(num_poses, 0) ||
                                (options_.relinearize_skip > 0 &&
                                 updates_since_relinearization_ + 1 >= options_.relinearize_skip);
   const Index relinearized = relinearize_now ? stageCandidates() : 0;
@@ -244,14 +251,7 @@ Index PoseGraphSolver2D::stageEveryMovedVariable(double tolerance) {
 Status PoseGraphSolver2D::refactor(Index new_poses, Index relinearized, bool allow_reorder,
                                    UpdateResult& r) {
   const Index n = cholesky_.columns();
-  // A relinearization of a large share of the variables recomputes most columns anyway, at twice
-  // the cost of factorizing them afresh (old contributions are subtracted): a full reordering and
-  // refactorization is then cheaper, and leaves a fresh ordering (city10000: 4,223 variables
-  // relinearized took 62 ms in place, a full refactorization of the same graph ~26 ms).
-  bool full = allow_reorder &&
-              (wantsReorder(new_poses) ||
-               (n >= options_.reorder_min_variables &&
-                relinearized > static_cast<Index>(options_.reorder_relinearized_share * n)));
+  bool full = allow_reorder && wantsReorder(new_poses, relinearized);
   int buffer = active_;
   if (full) {
     buffer = 1 - active_;
