@@ -21,10 +21,12 @@
 // A full refactorization (after a reordering) is the same loop with C started from Lambda.
 // Rounding of the old-C reconstruction accumulates slowly; every reordering starts afresh.
 //
-// Copy on write. Recomputed columns are written to the free tail of the block pool, next to the
-// columns they replace; commit() switches the column table to them, rollback() forgets them. A
-// failed update (pool full, a non-positive pivot) therefore leaves the factor bit-for-bit as it
-// was. The replaced columns become garbage that compact() squeezes out.
+// Copy on write. Recomputed columns are staged in the free tail of the block pool; commit()
+// installs them, rollback() forgets them. A failed update (pool full, a non-positive pivot)
+// therefore leaves the factor bit-for-bit as it was. At commit, a column whose structure did not
+// grow is copied back over its old blocks and the others are packed where the staging began (see
+// settleStagedColumns), so only the old versions of grown columns become garbage, which
+// compact() squeezes out.
 //
 // Storage of a column k: its first block is the *inverse* of the diagonal block, L(k,k)^-1, because
 // every later use (forward and back substitution) needs the inverse; then the blocks L(r, k) for
@@ -198,6 +200,7 @@ class IncrementalCholesky {
                                                const Index* new_position_of);
   void addOldClique(Index j);
   void commitReordered();
+  void settleStagedColumns();
   [[nodiscard]] Status rowUpdateColumn(Index k, const Index* pattern, Index pattern_size,
                                        Vector& rhs, Index& written_start);
 
