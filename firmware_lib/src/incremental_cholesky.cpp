@@ -375,22 +375,28 @@ void IncrementalCholesky<D>::settleStagedColumns() {
       grown[num_grown++] = k;
     }
   }
-  // In pool order, each column moves towards the front and never over one not yet moved.
-  std::sort(grown, grown + num_grown,
-            [this](Index x, Index y) { return a_.staged_start[x] < a_.staged_start[y]; });
-  Index write = pool_mark_;
-  for (Index i = 0; i < num_grown; ++i) {
-    const Index k = grown[i];
-    const Index from = a_.staged_start[k];
-    const Index size = a_.staged_count[k];
+  pool_end_ = packColumns(grown, num_grown, a_.staged_start, a_.staged_count, pool_mark_);
+}
+
+// Moves `columns` (start/count: their pool places) to consecutive places from `write` on, in pool
+// order, so that every move goes towards the front and never over a column not yet moved. Returns
+// the end of the packed range.
+template <int D>
+Index IncrementalCholesky<D>::packColumns(Index* columns, Index num, Index* start,
+                                          const Index* count, Index write) {
+  std::sort(columns, columns + num, [start](Index x, Index y) { return start[x] < start[y]; });
+  for (Index i = 0; i < num; ++i) {
+    const Index k = columns[i];
+    const Index from = start[k];
+    const Index size = count[k];
     if (from != write) {
       std::memmove(a_.rows + write, a_.rows + from, sizeof(Index) * static_cast<std::size_t>(size));
       for (Index b = 0; b < size; ++b) a_.blocks[write + b] = a_.blocks[from + b];
     }
-    a_.staged_start[k] = write;
+    start[k] = write;
     write += size;
   }
-  pool_end_ = write;
+  return write;
 }
 
 template <int D>
@@ -437,24 +443,9 @@ void IncrementalCholesky<D>::rebuildChildLists() {
 template <int D>
 void IncrementalCholesky<D>::compact() {
   LSLAM_ASSERT(!in_update_);
-  // Move columns in the order they sit in the pool, so every move goes towards the front and
-  // never over a column not yet moved.
   Index* order = a_.scratch;
   for (Index k = 0; k < n_; ++k) order[k] = k;
-  std::sort(order, order + n_, [this](Index x, Index y) { return a_.start[x] < a_.start[y]; });
-  Index write = 0;
-  for (Index i = 0; i < n_; ++i) {
-    const Index k = order[i];
-    const Index from = a_.start[k];
-    const Index size = a_.count[k];
-    if (from != write) {
-      std::memmove(a_.rows + write, a_.rows + from, sizeof(Index) * static_cast<std::size_t>(size));
-      for (Index b = 0; b < size; ++b) a_.blocks[write + b] = a_.blocks[from + b];
-    }
-    a_.start[k] = write;
-    write += size;
-  }
-  pool_end_ = write;
+  pool_end_ = packColumns(order, n_, a_.start, a_.count, 0);
   LSLAM_ASSERT(pool_end_ == live_blocks_);
 }
 

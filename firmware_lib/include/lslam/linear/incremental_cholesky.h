@@ -201,6 +201,7 @@ class IncrementalCholesky {
   void addOldClique(Index j);
   void commitReordered();
   void settleStagedColumns();
+  Index packColumns(Index* columns, Index num, Index* start, const Index* count, Index write);
   [[nodiscard]] Status rowUpdateColumn(Index k, const Index* pattern, Index pattern_size,
                                        Vector& rhs, Index& written_start);
 
