@@ -6,9 +6,9 @@
 // from its old value, sending every updated-minus-old outer product L(r,k) L(s,k)^T to the
 // columns of its structure: s^2 block products for a column of structure s. Here column k and
 // the factor's rows are rotated together, [L(:,k) W(:,k)] Q = [L'(:,k) W'(:,k)], and only W'
-// travels on to the parent: about 4 s block products. In a graph whose top is a dense clique of
-// ~100 columns (city10000 after COLAMD) that is the difference between ~10^6 and ~10^4 products
-// per loop closure. Orthogonal transformations also add no cancellation.
+// travels on to the parent: about 3 s block products (Q kept as D reflections). In a graph whose
+// top is a dense clique of ~100 columns (city10000 after COLAMD) that is the difference between
+// ~10^6 and ~10^4 products per loop closure. Orthogonal transformations also add no cancellation.
 //
 // The right-hand side rides along as one more row: L d = eta is the last row of the Cholesky
 // factor of [Lambda eta; eta^T .], so [d(k)^T b^T] Q = [d'(k)^T b'^T] updates d on the same path.
@@ -21,40 +21,60 @@
 namespace lslam {
 namespace {
 
-// An orthogonal Q (2D x 2D) with [l w] Q = [l' 0], l' lower-triangular with a positive diagonal,
-// for l lower-triangular (D x D, possibly zero for an added column) and w (D x D). Householder
-// reflections zero row j right of the diagonal, one row at a time (Golub & Van Loan 5.1.1, with
-// the sign chosen so that the kept entry is +norm). Returns false if a diagonal entry of l' is not
-// positive and finite (w and l together do not have full rank).
+// The D Householder reflections H_j = I - beta_j v_j v_j^T (2D x 2D) with [l w] H_0 ... H_{D-1} =
+// [l' 0], l' lower-triangular with a positive diagonal, for l lower-triangular (D x D, possibly
+// zero for an added column) and w (D x D). H_j zeroes row j right of the diagonal (Golub & Van
+// Loan 5.1.1, sign chosen so that the kept entry is +norm). Entries of row j right of the diagonal
+// within l are still zero when H_j is formed (H_0 .. H_{j-1} only mix l's columns 0 .. j-1 with
+// w), so v_j = e_j + [0; u_j]: applying H_j to a row costs 2D + 2 multiply-adds, against 4D for
+// the row times an explicit Q, which is why the reflections are kept in this factored form.
+template <int D>
+struct RowReflections {
+  Eigen::Matrix<double, D, D> u;  // column j: the w part of v_j
+  Eigen::Matrix<double, D, 1> beta;
+
+  // [x_l x_w] H_0 ... H_{D-1} for the rows of x_l (any count), in place.
+  template <typename XL, typename XW>
+  void apply(XL& x_l, XW& x_w) const {
+    for (int j = 0; j < D; ++j) {
+      const auto s = (beta(j) * (x_l.col(j) + x_w * u.col(j))).eval();
+      x_l.col(j) -= s;
+      x_w.noalias() -= s * u.col(j).transpose();
+    }
+  }
+};
+
+// Returns false if a diagonal entry of l' is not positive and finite (w and l together do not
+// have full rank).
 template <int D>
 bool triangularizeRows(const Eigen::Matrix<double, D, D>& l, const Eigen::Matrix<double, D, D>& w,
-                       Eigen::Matrix<double, D, D>& l_new, Eigen::Matrix<double, 2 * D, 2 * D>& q) {
-  Eigen::Matrix<double, D, 2 * D> m;
-  m << l, w;
-  q.setIdentity();
-  Eigen::Matrix<double, 2 * D, 1> v;
+                       Eigen::Matrix<double, D, D>& l_new, RowReflections<D>& h) {
+  Eigen::Matrix<double, D, D> m_l = l;
+  Eigen::Matrix<double, D, D> m_w = w;
   for (int j = 0; j < D; ++j) {
-    const double alpha = m(j, j);
-    double sigma = 0.0;
-    for (int c = j + 1; c < 2 * D; ++c) sigma += m(j, c) * m(j, c);
+    const double alpha = m_l(j, j);
+    const double sigma = m_w.row(j).squaredNorm();
     const double norm = std::sqrt(alpha * alpha + sigma);
     if (!(norm > 0.0) || !std::isfinite(norm)) return false;
-    if (sigma == 0.0 && alpha > 0.0) continue;  // row j is already in place
-    // v = x - norm e1, scaled so that v(j) = 1; for alpha > 0 the difference is formed as
+    if (sigma == 0.0 && alpha > 0.0) {  // row j is already in place: H_j = I
+      h.beta(j) = 0.0;
+      h.u.col(j).setZero();
+      continue;
+    }
+    // v = x - norm e_j, scaled so that v(j) = 1; for alpha > 0 the difference is formed as
     // -sigma / (alpha + norm), which does not cancel.
     const double v0 = alpha <= 0.0 ? alpha - norm : -sigma / (alpha + norm);
-    const double beta = 2.0 * v0 * v0 / (sigma + v0 * v0);
-    v.setZero();
-    v(j) = 1.0;
-    for (int c = j + 1; c < 2 * D; ++c) v(c) = m(j, c) / v0;
-    // Right-multiply by H = I - beta v v^T (v is zero before j).
-    const Eigen::Matrix<double, D, 1> mv = m * v;
-    m.noalias() -= (beta * mv) * v.transpose();
-    const Eigen::Matrix<double, 2 * D, 1> qv = q * v;
-    q.noalias() -= (beta * qv) * v.transpose();
+    h.beta(j) = 2.0 * v0 * v0 / (sigma + v0 * v0);
+    h.u.col(j) = m_w.row(j).transpose() / v0;
+    // Rows j .. D-1 still to be reduced (rows above are final and zero in w).
+    for (int r = j; r < D; ++r) {
+      const double s = h.beta(j) * (m_l(r, j) + m_w.row(r).dot(h.u.col(j)));
+      m_l(r, j) -= s;
+      m_w.row(r) -= s * h.u.col(j).transpose();
+    }
   }
   // What remains right of the diagonal is rounding of exact zeros.
-  l_new = m.template leftCols<D>().template triangularView<Eigen::Lower>();
+  l_new = m_l.template triangularView<Eigen::Lower>();
   return true;
 }
 
@@ -120,14 +140,10 @@ Status IncrementalCholesky<D>::rowUpdateColumn(Index k, const Index* pattern, In
     return Status::CapacityExhausted;
   }
   Block l_new;
-  Eigen::Matrix<double, 2 * D, 2 * D> q;
-  if (!triangularizeRows<D>(l_old, a_.update_rows[k], l_new, q)) {
+  RowReflections<D> h;
+  if (!triangularizeRows<D>(l_old, a_.update_rows[k], l_new, h)) {
     return Status::NotPositiveDefinite;
   }
-  const Block q11 = q.template topLeftCorner<D, D>();
-  const Block q12 = q.template topRightCorner<D, D>();
-  const Block q21 = q.template bottomLeftCorner<D, D>();
-  const Block q22 = q.template bottomRightCorner<D, D>();
 
   const Index start = pool_end_;
   Index* rows = a_.rows + start;
@@ -144,33 +160,32 @@ Status IncrementalCholesky<D>::rowUpdateColumn(Index k, const Index* pattern, In
     const Index r_old = i < old_size ? old_rows[i] : kNoIndex;
     const Index r_new = j < pattern_size ? pattern[j] : kNoIndex;
     Index r;
+    // The row block [L(r,k) W(r)], with W(r) zero for a row the factor's rows do not reach yet
+    // and L(r,k) zero for fill.
+    Block& l_r = blocks[size];
     if (r_new == kNoIndex || (r_old != kNoIndex && r_old < r_new)) {
       r = r_old;
-      const Block& l_r = old_blocks[i++];
-      blocks[size] = l_r * q11;
-      a_.update_rows[r] = l_r * q12;
-      products += 2;
+      l_r = old_blocks[i++];
+      a_.update_rows[r].setZero();
     } else if (r_old == kNoIndex || r_new < r_old) {
       r = r_new;
       ++j;
-      const Block w_r = a_.update_rows[r];
-      blocks[size] = w_r * q21;
-      a_.update_rows[r] = w_r * q22;
-      products += 2;
+      l_r.setZero();
     } else {
       r = r_old;
       ++j;
-      const Block& l_r = old_blocks[i++];
-      const Block w_r = a_.update_rows[r];
-      blocks[size] = l_r * q11 + w_r * q21;
-      a_.update_rows[r] = l_r * q12 + w_r * q22;
-      products += 4;
+      l_r = old_blocks[i++];
     }
+    h.apply(l_r, a_.update_rows[r]);
+    products += 3;  // the D reflections: D (2 D^2 + 2 D) multiply-adds, ~2.7 block products
     rows[size++] = r;
   }
-  const Vector& b = rhs;
-  const Vector d_new = q11.transpose() * d_old + q21.transpose() * b;
-  rhs = q12.transpose() * d_old + q22.transpose() * b;
+  // The right-hand side is one more row: [d(k)^T b^T].
+  Eigen::Matrix<double, 1, D> d_row = d_old.transpose();
+  Eigen::Matrix<double, 1, D> b_row = rhs.transpose();
+  h.apply(d_row, b_row);
+  const Vector d_new = d_row.transpose();
+  rhs = b_row.transpose();
   blocks[0] = detail::invertLowerTriangular<D>(l_new);
   pool_end_ += size;
   if (!staged) {
