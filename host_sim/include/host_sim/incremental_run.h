@@ -27,7 +27,8 @@ const char* stepKindName(StepKind kind);
 struct StepRecord {
   std::size_t index = 0;
   StepKind kind = StepKind::Odometry;
-  double microseconds = 0.0;
+  double microseconds = 0.0;        // the whole step: update and back-substitution
+  double solve_microseconds = 0.0;  // of which the back-substitution
   UpdateResult result;
 };
 
