@@ -76,12 +76,13 @@ void writeCsv(const std::string& path, const IncrementalRun& run) {
   std::ofstream f(path);
   if (!f) throw std::runtime_error("cannot write " + path);
   f << "step,kind,microseconds,columns_refactored,variables_solved,variables_relinearized,"
-       "reordered,factor_blocks,solve_microseconds\n";
+       "reordered,factor_blocks,solve_microseconds,block_products\n";
   for (const StepRecord& s : run.steps) {
     f << s.index << ',' << stepKindName(s.kind) << ',' << s.microseconds << ','
       << s.result.columns_refactored << ',' << s.result.variables_solved << ','
       << s.result.variables_relinearized << ',' << (s.result.reordered ? 1 : 0) << ','
-      << s.result.factor_blocks << ',' << s.solve_microseconds << '\n';
+      << s.result.factor_blocks << ',' << s.solve_microseconds << ',' << s.result.block_products
+      << '\n';
   }
 }
 
