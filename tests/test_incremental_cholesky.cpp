@@ -60,8 +60,9 @@ class DenseSource final : public lslam::InformationSource<3> {
   void visitNeighbours(Index v, lslam::NeighbourVisitor& visitor) const override {
     for (Index u : neighbours[v]) visitor.visit(u);
   }
-  void assembleColumn(Index v, const Index* position,
-                      lslam::ColumnAccumulator<3>& acc) const override {
+  // Holds Lambda whole: every column is assembled complete, nothing goes to `later`.
+  void assembleColumn(Index v, const Index* position, lslam::ColumnAccumulator<3>& acc,
+                      lslam::LaterDiagonals<3>& /*later*/) const override {
     acc.addDiagonal(lambda.block<3, 3>(3 * v, 3 * v));
     acc.addEta(eta.segment<3>(3 * v));
     for (Index u : neighbours[v])

@@ -154,8 +154,12 @@ Status IncrementalCholesky<D>::factorize(const InformationSource<D>& source,
   // Numeric, right-looking over the affected columns only: each starts from its old value plus
   // the change of Lambda, and receives the updated-minus-old contributions of the affected columns
   // below it before it is factorized.
-  for (Index i = 0; i < affected_count_; ++i) {
-    startColumn(a_.affected[i], source, variable_at, position_of);
+  if (full_) {
+    assembleAllColumns(source, variable_at, position_of);
+  } else {
+    for (Index i = 0; i < affected_count_; ++i) {
+      startColumn(a_.affected[i], source, variable_at, position_of);
+    }
   }
   for (Index i = 0; i < affected_count_; ++i) {
     const Index k = a_.affected[i];
@@ -250,7 +254,7 @@ void IncrementalCholesky<D>::startColumn(Index k, const InformationSource<D>& so
   }
   Vector& e = a_.staged_d[k];
   e.setZero();
-  if (!full_ && k < n_) {
+  if (k < n_) {
     // C_old(:,k) = L_old(:,k) L_old(k,k)^T and e_old = L_old(k,k) d_old: the column as it was
     // before its pivot, on the old structure (a subset of the updated one).
     const Block& l = a_.diagonal[k];
@@ -263,10 +267,28 @@ void IncrementalCholesky<D>::startColumn(Index k, const InformationSource<D>& so
     e.noalias() = l * a_.d[k];
   }
   ColumnAccumulator<D> acc(blocks, a_.slot, &e);
-  if (full_) {
-    source.assembleColumn(variable_at[k], position_of, acc);
-  } else {
-    source.assembleColumnChange(variable_at[k], position_of, acc);
+  source.assembleColumnChange(variable_at[k], position_of, acc);
+}
+
+// A full factorization assembles every column of Lambda: all are zeroed first, so that each
+// factor can add to its later variable's column when its earlier one is assembled.
+template <int D>
+void IncrementalCholesky<D>::assembleAllColumns(const InformationSource<D>& source,
+                                                const Index* variable_at,
+                                                const Index* position_of) {
+  for (Index i = 0; i < affected_count_; ++i) {
+    const Index k = a_.affected[i];
+    Block* blocks = a_.blocks + a_.staged_start[k];
+    for (Index b = 0; b < a_.staged_count[k]; ++b) blocks[b].setZero();
+    a_.staged_d[k].setZero();
+  }
+  LaterDiagonals<D> later(a_.blocks, a_.staged_start, a_.staged_d);
+  for (Index i = 0; i < affected_count_; ++i) {
+    const Index k = a_.affected[i];
+    const Index* rows = a_.rows + a_.staged_start[k];
+    for (Index b = 0; b < a_.staged_count[k]; ++b) a_.slot[rows[b]] = b;
+    ColumnAccumulator<D> acc(a_.blocks + a_.staged_start[k], a_.slot, &a_.staged_d[k]);
+    source.assembleColumn(variable_at[k], position_of, acc, later);
   }
 }
 

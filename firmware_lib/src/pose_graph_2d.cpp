@@ -184,10 +184,33 @@ void PoseGraph2D::addContribution(Index f, Index variable, const Index* position
   }
 }
 
-void PoseGraph2D::assembleColumn(Index variable, const Index* position,
-                                 ColumnAccumulator<3>& acc) const {
+void PoseGraph2D::assembleColumn(Index variable, const Index* position, ColumnAccumulator<3>& acc,
+                                 LaterDiagonals<3>& later) const {
   for (Index e = a_.first_entry[variable]; e != kNoIndex; e = a_.next_entry[e]) {
-    addContribution(a_.entry_factor[e], variable, position, false, 1.0, acc);
+    const Index f = a_.entry_factor[e];
+    if (a_.kind[f] == FactorKind::PriorSE2) {
+      addContribution(f, variable, position, false, 1.0, acc);
+      continue;
+    }
+    const Index i = a_.first_variable[f];
+    const Index k = a_.second_variable[f];
+    const Index other = i == variable ? k : i;
+    if (position[other] < position[variable]) continue;  // assembled with the earlier column
+    Mat3 j_i;
+    Mat3 j_k;
+    const Vec3 err = betweenErrorSE2(linearizationPoint(i), linearizationPoint(k),
+                                     a_.measurement[f], &j_i, &j_k);
+    const Mat3& j_self = i == variable ? j_i : j_k;
+    const Mat3& j_other = i == variable ? j_k : j_i;
+    const Mat3& omega = a_.information[f];
+    const Mat3 omega_j_self = omega * j_self;
+    const Mat3 omega_j_other = omega * j_other;
+    const Vec3 omega_err = omega * err;
+    acc.addDiagonal(j_self.transpose() * omega_j_self);
+    acc.addEta(-(j_self.transpose() * omega_err));
+    acc.addBelow(position[other], j_other.transpose() * omega_j_self);
+    later.addDiagonal(position[other], j_other.transpose() * omega_j_other);
+    later.addEta(position[other], -(j_other.transpose() * omega_err));
   }
 }
 

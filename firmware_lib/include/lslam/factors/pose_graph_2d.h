@@ -75,10 +75,10 @@ class PoseGraph2D final : public InformationSource<3> {
                      Vec3* rhs) const;
 
   void visitNeighbours(Index variable, NeighbourVisitor& visitor) const override;
-  void assembleColumn(Index variable, const Index* position,
-                      ColumnAccumulator<3>& acc) const override;
   void assembleColumnChange(Index variable, const Index* position,
                             ColumnAccumulator<3>& acc) const override;
+  void assembleColumn(Index variable, const Index* position, ColumnAccumulator<3>& acc,
+                      LaterDiagonals<3>& later) const override;
 
  private:
   bool isStaged(Index variable) const { return in_update_ && a_.staged[variable] == stamp_; }

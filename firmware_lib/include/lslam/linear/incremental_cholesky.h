@@ -185,6 +185,8 @@ class IncrementalCholesky {
   void linkStagedChild(Index k, Index parent);
   void startColumn(Index k, const InformationSource<D>& source, const Index* variable_at,
                    const Index* position_of);
+  void assembleAllColumns(const InformationSource<D>& source, const Index* variable_at,
+                          const Index* position_of);
   [[nodiscard]] Status finishColumn(Index k);
   void scatter(const Index* rows, const Block* blocks, Index size, const Vector& d, double sign);
   std::uint32_t nextMark();

@@ -38,15 +38,42 @@ class ColumnAccumulator {
   Vector* eta_;
 };
 
+// Receives, during a full factorization, the diagonal blocks and eta of columns after the one
+// being assembled (see InformationSource::assembleColumnOnce).
+template <int D>
+class LaterDiagonals {
+ public:
+  using Block = Eigen::Matrix<double, D, D>;
+  using Vector = Eigen::Matrix<double, D, 1>;
+
+  // Column p's diagonal block is pool[start_of_column[p]], its eta eta_of_column[p].
+  LaterDiagonals(Block* pool, const Index* start_of_column, Vector* eta_of_column)
+      : pool_(pool), start_of_column_(start_of_column), eta_of_column_(eta_of_column) {}
+
+  void addDiagonal(Index position, const Block& block) {
+    pool_[start_of_column_[position]] += block;
+  }
+  void addEta(Index position, const Vector& v) { eta_of_column_[position] += v; }
+
+ private:
+  Block* pool_;
+  const Index* start_of_column_;
+  Vector* eta_of_column_;
+};
+
 template <int D>
 class InformationSource {
  public:
   // Calls visitor.visit(u) for every variable u sharing a factor with `variable`.
   virtual void visitNeighbours(Index variable, NeighbourVisitor& visitor) const = 0;
-  // Adds column `variable` of Lambda (diagonal, and rows whose position is greater than
-  // position[variable]) and the variable's eta to `acc`.
-  virtual void assembleColumn(Index variable, const Index* position,
-                              ColumnAccumulator<D>& acc) const = 0;
+  // For a factorization that assembles every column, ascending, into columns zeroed beforehand:
+  // adds column `variable` of Lambda (diagonal, and rows whose position is greater than
+  // position[variable]) and the variable's eta, less what `later` received for it earlier. A
+  // source made of factors linearizes each one once, when its first variable in position order is
+  // assembled, and passes its share of the later variable's diagonal block and eta to `later`
+  // right away (linearizing dominates assembly: three sines and cosines per factor).
+  virtual void assembleColumn(Index variable, const Index* position, ColumnAccumulator<D>& acc,
+                              LaterDiagonals<D>& later) const = 0;
   // Adds only what changed in this update: for every factor of `variable` that was added in this
   // update or touches a relinearized variable, its contribution at the current linearization minus
   // (for old factors) its contribution at the old one. Zero for a column no factor of which
