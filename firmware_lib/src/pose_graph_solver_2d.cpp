@@ -129,23 +129,38 @@ void PoseGraphSolver2D::forgetNewIds(const PoseInput* poses, Index num_poses) {
   for (Index i = num_poses - 1; i >= 0; --i) ids_.eraseNewest(poses[i].id);
 }
 
-// Reorder when the factor has grown well past what the last ordering produced, when the last
-// update had to walk a long elimination-tree path (a loop closure far back in the order), or when
-// this update relinearizes a large share of the variables: that recomputes most columns anyway, at
-// twice the cost of factorizing them afresh (old contributions are subtracted), so a full
-// reordering and refactorization is cheaper and leaves a fresh ordering (city10000: 4,223
-// variables relinearized took 62 ms in place, a full refactorization of the same graph ~26 ms).
-bool PoseGraphSolver2D::wantsReorder(Index new_variables, Index relinearized) const {
+// Refactorize every column afresh when the factor has grown well past what the last ordering
+// produced, when the last update had to walk a long elimination-tree path (a loop closure far
+// back in the order), or when this update relinearizes a large share of the variables: that
+// recomputes most columns anyway, at twice the cost of factorizing them afresh (old contributions
+// are subtracted), so a full refactorization is cheaper (city10000: 4,223 variables relinearized
+// took 62 ms in place, a full refactorization of the same graph ~26 ms).
+bool PoseGraphSolver2D::wantsFullRefactor(Index new_variables, Index relinearized) const {
+  if (wantsReorder(new_variables)) return true;
+  const Index committed = cholesky_.columns();
+  return committed >= options_.reorder_min_variables &&
+         relinearized > static_cast<Index>(options_.reorder_relinearized_share * committed);
+}
+
+// Whether a full refactorization gets a fresh ordering too. The first two triggers above are
+// about the ordering, so they always reorder. A refactorization for relinearization reorders
+// only if the factor has grown since the last ordering by more than reorder_refresh_growth:
+// right after an ordering, COLAMD would return about the same fill for its cost
+// (manhattanOlson3500: ~0.4 ms a call, a third of a full refactorization).
+bool PoseGraphSolver2D::wantsReorder(Index new_variables) const {
   const Index n = graph_.variables() + new_variables;
   if (n < options_.reorder_min_variables) return false;
   if (blocks_at_last_order_ == 0) return true;
-  const Index committed = cholesky_.columns();
   return cholesky_.liveBlocks() >
              static_cast<Index>(options_.reorder_growth * blocks_at_last_order_) ||
          (options_.reorder_path_columns > 0 &&
-          last_columns_refactored_ > options_.reorder_path_columns) ||
-         (committed >= options_.reorder_min_variables &&
-          relinearized > static_cast<Index>(options_.reorder_relinearized_share * committed));
+          last_columns_refactored_ > options_.reorder_path_columns);
+}
+
+bool PoseGraphSolver2D::orderingFresh() const {
+  return blocks_at_last_order_ > 0 &&
+         cholesky_.liveBlocks() <=
+             static_cast<Index>(options_.reorder_refresh_growth * blocks_at_last_order_);
 }
 
 // COLAMD on the factor-variable incidence of every variable except the newest committed one,
@@ -202,7 +217,7 @@ Status PoseGraphSolver2D::update(const PoseInput* poses, Index num_poses,
       graph_.addBetween(ids_.find(in.from), ids_.find(in.to), in.measurement, in.information);
     }
   }
-  const bool relinearize_now = relinearization_urgent_ || wantsReorder(num_poses, 0) ||
+  const bool relinearize_now = relinearization_urgent_ || wantsReorder(num_poses) ||
                                (options_.relinearize_skip > 0 &&
                                 updates_since_relinearization_ + 1 >= options_.relinearize_skip);
   const Index relinearized = relinearize_now ? stageCandidates() : 0;
@@ -251,16 +266,18 @@ Index PoseGraphSolver2D::stageEveryMovedVariable(double tolerance) {
 Status PoseGraphSolver2D::refactor(Index new_poses, Index relinearized, bool allow_reorder,
                                    UpdateResult& r) {
   const Index n = cholesky_.columns();
-  bool full = allow_reorder && wantsReorder(new_poses, relinearized);
+  bool full = allow_reorder && wantsFullRefactor(new_poses, relinearized);
+  bool reorder = full && (wantsReorder(new_poses) || !orderingFresh());
   int buffer = active_;
-  if (full) {
+  if (reorder) {
     buffer = 1 - active_;
-    full = computeOrdering(a_.variable_at[buffer], a_.position_of[buffer]) == Status::Ok;
-    if (!full) buffer = active_;  // no workspace for an ordering: keep the current one
+    reorder = computeOrdering(a_.variable_at[buffer], a_.position_of[buffer]) == Status::Ok;
+    if (!reorder) buffer = active_;  // no workspace for an ordering: keep the current one
+    full = reorder;
   }
   Index* variable_at = a_.variable_at[buffer];
   Index* position_of = a_.position_of[buffer];
-  if (!full) {
+  if (!reorder) {
     for (Index v = n; v < n + new_poses; ++v) {
       variable_at[v] = v;
       position_of[v] = v;
@@ -280,9 +297,10 @@ Status PoseGraphSolver2D::refactor(Index new_poses, Index relinearized, bool all
   for (Index i = 0; i < relinearized; ++i) a_.delta[a_.marked[i]].setZero();
   for (Index v = n; v < n + new_poses; ++v) a_.delta[v].setZero();
   const FactorizationStats& stats = cholesky_.lastStats();
-  if (full) blocks_at_last_order_ = cholesky_.liveBlocks();
+  if (reorder) blocks_at_last_order_ = cholesky_.liveBlocks();
   last_columns_refactored_ = full ? 0 : stats.columns_recomputed;
-  r.reordered = full;
+  r.reordered = reorder;
+  r.refactored_fully = full;
   r.top_reordered = top_reordered;
   r.variables_relinearized = relinearized;
   r.columns_refactored = stats.columns_recomputed;

@@ -35,7 +35,7 @@ int usage() {
                "                 [--relinearize-urgent T]\n"
                "                 [--backsub-tolerance T]\n"
                "                 [--reorder-growth G] [--reorder-path COLUMNS]\n"
-               "                 [--reorder-relinearized SHARE]\n"
+               "                 [--reorder-relinearized SHARE] [--reorder-refresh G]\n"
                "                 [--reorder-top] [--no-row-updates]\n"
                "       lslam-sim generate OUT.g2o [--poses N] [--seed S]\n");
   return 2;
@@ -242,6 +242,8 @@ int main(int argc, char** argv) {
         args.solver.row_updates = false;
       } else if (a == "--reorder-relinearized" && has_value) {
         args.solver.reorder_relinearized_share = std::atof(argv[++i]);
+      } else if (a == "--reorder-refresh" && has_value) {
+        args.solver.reorder_refresh_growth = std::atof(argv[++i]);
       } else if (a == "--reorder-path" && has_value) {
         args.solver.reorder_path_columns = std::atoi(argv[++i]);
       } else {

@@ -30,8 +30,11 @@ struct SolverOptions {
   double reorder_growth = 1.5;
   // ...or when one update recomputed more than this many columns (a long etree path; 0: off).
   Index reorder_path_columns = 600;
-  // ...or when an update relinearizes more than this share of the variables.
+  // ...or when an update relinearizes more than this share of the variables, which refactorizes
+  // every column; that reorders too only once the factor has grown by this factor since the last
+  // ordering (a fresh COLAMD order would be about the same).
   double reorder_relinearized_share = 0.05;
+  double reorder_refresh_growth = 1.05;
   // Updates that only add factors (no variable relinearized, no reordering) rotate the added
   // factors' whitened rows into L along their etree paths (IncrementalCholesky::addFactorRows):
   // O(s) work per column of structure s instead of O(s^2) for recomputing the column. Off: every

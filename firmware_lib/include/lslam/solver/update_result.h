@@ -16,6 +16,7 @@ struct UpdateResult {
   Index variables_solved = 0;       // variables back-substituted
   std::int64_t block_products = 0;  // 3x3 multiply-adds of the factorization
   bool reordered = false;           // a COLAMD reordering (and full refactorization) happened
+  bool refactored_fully = false;    // every column recomputed (a reordering, or most relinearized)
   bool top_reordered = false;       // the affected top alone was reordered and refactorized
   bool compacted = false;           // the block pool was compacted
   Index factor_blocks = 0;          // nonzero blocks of L after the call
