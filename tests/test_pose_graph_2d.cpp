@@ -116,10 +116,12 @@ TEST_CASE("assembleColumn linearizes each factor once and reproduces J^T Omega J
       pool_size += static_cast<Index>(rows[k].size());
     }
     std::vector<Mat3> pool(pool_size, Mat3::Zero());
+    std::vector<Mat3> diagonal(kVariables, Mat3::Zero());
     std::vector<Vec3> eta(kVariables, Vec3::Zero());
     std::vector<Index> slot(kVariables, -1);
-    LaterDiagonals<3> later(pool.data(), start.data(), eta.data());
+    LaterDiagonals<3> later(diagonal.data(), eta.data());
     for (Index k = 0; k < kVariables; ++k) {
+      pool[start[k]] = diagonal[k];  // what the earlier columns sent
       for (std::size_t b = 0; b < rows[k].size(); ++b) slot[rows[k][b]] = static_cast<Index>(b);
       ColumnAccumulator<3> acc(pool.data() + start[k], slot.data(), &eta[k]);
       graph.assembleColumn(variable_at[k], position.data(), acc, later);

@@ -270,24 +270,32 @@ void IncrementalCholesky<D>::startColumn(Index k, const InformationSource<D>& so
   source.assembleColumnChange(variable_at[k], position_of, acc);
 }
 
-// A full factorization assembles every column of Lambda: all are zeroed first, so that each
-// factor can add to its later variable's column when its earlier one is assembled.
+// A full factorization assembles every column of Lambda, ascending, each factor linearized once
+// (InformationSource::assembleColumn): the diagonal blocks and eta of the later columns
+// accumulate in staged_diagonal and staged_d (compact arrays; staged_diagonal is free until the
+// column is factorized), and each column's own blocks are zeroed just before it is assembled.
+// Zeroing the whole staged factor first and adding to diagonal blocks scattered over it cost a
+// cache miss per factor (city10000: 6.3 ms of a 25 ms reordering).
 template <int D>
 void IncrementalCholesky<D>::assembleAllColumns(const InformationSource<D>& source,
                                                 const Index* variable_at,
                                                 const Index* position_of) {
   for (Index i = 0; i < affected_count_; ++i) {
-    const Index k = a_.affected[i];
-    Block* blocks = a_.blocks + a_.staged_start[k];
-    for (Index b = 0; b < a_.staged_count[k]; ++b) blocks[b].setZero();
-    a_.staged_d[k].setZero();
+    a_.staged_diagonal[a_.affected[i]].setZero();
+    a_.staged_d[a_.affected[i]].setZero();
   }
-  LaterDiagonals<D> later(a_.blocks, a_.staged_start, a_.staged_d);
+  LaterDiagonals<D> later(a_.staged_diagonal, a_.staged_d);
   for (Index i = 0; i < affected_count_; ++i) {
     const Index k = a_.affected[i];
     const Index* rows = a_.rows + a_.staged_start[k];
-    for (Index b = 0; b < a_.staged_count[k]; ++b) a_.slot[rows[b]] = b;
-    ColumnAccumulator<D> acc(a_.blocks + a_.staged_start[k], a_.slot, &a_.staged_d[k]);
+    Block* blocks = a_.blocks + a_.staged_start[k];
+    // Every earlier column has been assembled: what they sent to k's diagonal is complete.
+    blocks[0] = a_.staged_diagonal[k];
+    for (Index b = 1; b < a_.staged_count[k]; ++b) {
+      blocks[b].setZero();
+      a_.slot[rows[b]] = b;
+    }
+    ColumnAccumulator<D> acc(blocks, a_.slot, &a_.staged_d[k]);
     source.assembleColumn(variable_at[k], position_of, acc, later);
   }
 }

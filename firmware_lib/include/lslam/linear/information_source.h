@@ -46,18 +46,15 @@ class LaterDiagonals {
   using Block = Eigen::Matrix<double, D, D>;
   using Vector = Eigen::Matrix<double, D, 1>;
 
-  // Column p's diagonal block is pool[start_of_column[p]], its eta eta_of_column[p].
-  LaterDiagonals(Block* pool, const Index* start_of_column, Vector* eta_of_column)
-      : pool_(pool), start_of_column_(start_of_column), eta_of_column_(eta_of_column) {}
+  // Column p's diagonal block accumulates in diagonal_of_column[p], its eta in eta_of_column[p].
+  LaterDiagonals(Block* diagonal_of_column, Vector* eta_of_column)
+      : diagonal_of_column_(diagonal_of_column), eta_of_column_(eta_of_column) {}
 
-  void addDiagonal(Index position, const Block& block) {
-    pool_[start_of_column_[position]] += block;
-  }
+  void addDiagonal(Index position, const Block& block) { diagonal_of_column_[position] += block; }
   void addEta(Index position, const Vector& v) { eta_of_column_[position] += v; }
 
  private:
-  Block* pool_;
-  const Index* start_of_column_;
+  Block* diagonal_of_column_;
   Vector* eta_of_column_;
 };
 
