@@ -129,24 +129,9 @@ void PoseGraphSolver2D::forgetNewIds(const PoseInput* poses, Index num_poses) {
   for (Index i = num_poses - 1; i >= 0; --i) ids_.eraseNewest(poses[i].id);
 }
 
-// Refactorize every column afresh when the factor has grown well past what the last ordering
-// produced, when the last update had to walk a long elimination-tree path (a loop closure far
-// back in the order), or when this update relinearizes a large share of the variables: that
-// recomputes most columns anyway, at twice the cost of factorizing them afresh (old contributions
-// are subtracted), so a full refactorization is cheaper (city10000: 4,223 variables relinearized
-// took 62 ms in place, a full refactorization of the same graph ~26 ms).
-bool PoseGraphSolver2D::wantsFullRefactor(Index new_variables, Index relinearized) const {
-  if (wantsReorder(new_variables)) return true;
-  const Index committed = cholesky_.columns();
-  return committed >= options_.reorder_min_variables &&
-         relinearized > static_cast<Index>(options_.reorder_relinearized_share * committed);
-}
-
-// Whether a full refactorization gets a fresh ordering too. The first two triggers above are
-// about the ordering, so they always reorder. A refactorization for relinearization reorders
-// only if the factor has grown since the last ordering by more than reorder_refresh_growth:
-// right after an ordering, COLAMD would return about the same fill for its cost
-// (manhattanOlson3500: ~0.4 ms a call, a third of a full refactorization).
+// Reorder the whole graph (and refactorize every column) when the factor has grown well past what
+// the last ordering produced, or when the last update had to walk a long elimination-tree path (a
+// loop closure far back in the order).
 bool PoseGraphSolver2D::wantsReorder(Index new_variables) const {
   const Index n = graph_.variables() + new_variables;
   if (n < options_.reorder_min_variables) return false;
@@ -155,6 +140,18 @@ bool PoseGraphSolver2D::wantsReorder(Index new_variables) const {
              static_cast<Index>(options_.reorder_growth * blocks_at_last_order_) ||
          (options_.reorder_path_columns > 0 &&
           last_columns_refactored_ > options_.reorder_path_columns);
+}
+
+// Refactorize every column when this update relinearizes a large share of the variables: that
+// recomputes most columns anyway, at twice the cost of factorizing them afresh (old contributions
+// are subtracted), so a full refactorization is cheaper (city10000: 4,223 variables relinearized
+// took 62 ms in place, a full refactorization of the same graph ~26 ms). It reorders too only if
+// the ordering is no longer fresh: right after an ordering, COLAMD would return about the same
+// fill for its cost (manhattanOlson3500: ~0.4 ms a call, a third of a full refactorization).
+bool PoseGraphSolver2D::relinearizesMost(Index relinearized) const {
+  const Index committed = cholesky_.columns();
+  return committed >= options_.reorder_min_variables &&
+         relinearized > static_cast<Index>(options_.reorder_relinearized_share * committed);
 }
 
 bool PoseGraphSolver2D::orderingFresh() const {
@@ -266,8 +263,9 @@ Index PoseGraphSolver2D::stageEveryMovedVariable(double tolerance) {
 Status PoseGraphSolver2D::refactor(Index new_poses, Index relinearized, bool allow_reorder,
                                    UpdateResult& r) {
   const Index n = cholesky_.columns();
-  bool full = allow_reorder && wantsFullRefactor(new_poses, relinearized);
-  bool reorder = full && (wantsReorder(new_poses) || !orderingFresh());
+  const bool ordering_stale = allow_reorder && wantsReorder(new_poses);
+  bool full = ordering_stale || (allow_reorder && relinearizesMost(relinearized));
+  bool reorder = ordering_stale || (full && !orderingFresh());
   int buffer = active_;
   if (reorder) {
     buffer = 1 - active_;

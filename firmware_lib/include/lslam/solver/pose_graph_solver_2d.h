@@ -92,8 +92,8 @@ class PoseGraphSolver2D {
   Status checkAnchored(const PoseInput* poses, Index num_poses, const FactorInput* factors,
                        Index num_factors) const;
   void forgetNewIds(const PoseInput* poses, Index num_poses);
-  bool wantsFullRefactor(Index new_variables, Index relinearized) const;
   bool wantsReorder(Index new_variables) const;
+  bool relinearizesMost(Index relinearized) const;
   bool orderingFresh() const;
   Status computeOrdering(Index* variable_at, Index* position_of);
   Index stageCandidates();
