@@ -154,10 +154,7 @@ struct Harness {
   // touched.
   std::vector<std::pair<Index, Index>> growOneStep(std::mt19937& rng) {
     std::uniform_int_distribution<int> coin(0, 3);
-    const Index v = source.size();
-    source.addVariable();
-    variable_at.push_back(v);
-    position_of.push_back(v);
+    const Index v = addVariable();
     std::vector<std::pair<Index, Index>> touched;
     if (v == 0) {
       source.addPrior(0);
@@ -178,6 +175,15 @@ struct Harness {
       touched.push_back({a - 1, a});
     }
     return touched;
+  }
+
+  // Appends a variable in the last position; returns it.
+  Index addVariable() {
+    const Index v = source.size();
+    source.addVariable();
+    variable_at.push_back(v);
+    position_of.push_back(v);
+    return v;
   }
 
   // Refactors every column from scratch in the current variable_at order (after a reordering).
@@ -212,7 +218,6 @@ TEST_CASE("incremental block Cholesky equals dense LLT over random growth sequen
     CAPTURE(seed);
     std::mt19937 rng(seed);
     auto h = std::make_unique<Harness>();
-    std::uniform_int_distribution<int> coin(0, 3);
     for (Index step = 0; step < 60; ++step) {
       const std::vector<std::pair<Index, Index>> touched = h->growOneStep(rng);
       REQUIRE(h->update(1, touched) == lslam::Status::Ok);
@@ -227,9 +232,7 @@ TEST_CASE("full refactorization under a new ordering equals dense LLT of the per
     std::mt19937 rng(seed);
     auto h = std::make_unique<Harness>();
     for (Index v = 0; v < 50; ++v) {
-      h->source.addVariable();
-      h->variable_at.push_back(v);
-      h->position_of.push_back(v);
+      h->addVariable();
       if (v == 0) {
         h->source.addPrior(0);
       } else {
@@ -253,9 +256,7 @@ TEST_CASE("full refactorization under a new ordering equals dense LLT of the per
     CHECK((denseFactor(h->chol) - before).cwiseAbs().maxCoeff() == 0.0);
     // And incremental updates go on from the new ordering.
     for (Index v = 50; v < 70; ++v) {
-      h->source.addVariable();
-      h->variable_at.push_back(v);
-      h->position_of.push_back(v);
+      h->addVariable();
       h->source.addFactor(v - 1, v, rng);
       const Index old = std::uniform_int_distribution<Index>(0, v - 1)(rng);
       h->source.addFactor(old, v, rng);
@@ -272,9 +273,7 @@ TEST_CASE(
   std::vector<Eigen::Vector3d> delta(kMaxColumns, Eigen::Vector3d::Zero());
   std::vector<Index> visited(kMaxColumns);
   for (Index v = 0; v < 70; ++v) {
-    h->source.addVariable();
-    h->variable_at.push_back(v);
-    h->position_of.push_back(v);
+    h->addVariable();
     std::vector<std::pair<Index, Index>> touched;
     if (v == 0) {
       h->source.addPrior(0);
@@ -304,9 +303,7 @@ TEST_CASE("a non-positive pivot is reported and the factor is left exactly as it
   std::mt19937 rng(3);
   auto h = std::make_unique<Harness>();
   for (Index v = 0; v < 30; ++v) {
-    h->source.addVariable();
-    h->variable_at.push_back(v);
-    h->position_of.push_back(v);
+    h->addVariable();
     if (v == 0)
       h->source.addPrior(0);
     else
@@ -409,9 +406,7 @@ TEST_CASE(
     std::uniform_int_distribution<int> coin(0, 3);
     Index row_updates = 0;
     for (Index v = 0; v < 60; ++v) {
-      h->source.addVariable();
-      h->variable_at.push_back(v);
-      h->position_of.push_back(v);
+      h->addVariable();
       if (v == 0) {
         h->source.addPrior(0);
         REQUIRE(h->update(1, {{0, 0}}) == lslam::Status::Ok);
@@ -455,15 +450,11 @@ TEST_CASE("row update: back-substitution after it equals the dense solution") {
   auto h = std::make_unique<Harness>();
   std::vector<Eigen::Vector3d> delta(kMaxColumns, Eigen::Vector3d::Zero());
   std::vector<Index> visited(kMaxColumns);
-  h->source.addVariable();
-  h->variable_at.push_back(0);
-  h->position_of.push_back(0);
+  h->addVariable();
   h->source.addPrior(0);
   REQUIRE(h->update(1, {{0, 0}}) == lslam::Status::Ok);
   for (Index v = 1; v < 70; ++v) {
-    h->source.addVariable();
-    h->variable_at.push_back(v);
-    h->position_of.push_back(v);
+    h->addVariable();
     h->chol.beginUpdate(1, false);
     REQUIRE(addRows(*h, v - 1, v, rng) == lslam::Status::Ok);
     if (v % 4 == 0) {

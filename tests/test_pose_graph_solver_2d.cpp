@@ -66,10 +66,6 @@ double maxPositionDiff(const Estimate2D& a, const Estimate2D& b) {
   return m;
 }
 
-}  // namespace
-
-namespace {
-
 // The update paths under test: the recomputing update alone, or with row updates for loop
 // closures; relinearization at every update, or batched (urgent threshold above the threshold).
 struct UpdatePaths {

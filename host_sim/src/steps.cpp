@@ -158,16 +158,6 @@ Pose2D composeMeasurement(const Pose2D& xi, const Pose2D& z) {
   return out;
 }
 
-Pose2D invertMeasurement(const Pose2D& z) {
-  const double c = std::cos(z.theta);
-  const double s = std::sin(z.theta);
-  Pose2D out;
-  out.x = -(c * z.x + s * z.y);
-  out.y = -(-s * z.x + c * z.y);
-  out.theta = wrapToPi(-z.theta);
-  return out;
-}
-
 Pose2D relativePose(const Pose2D& xi, const Pose2D& xj) {
   const double c = std::cos(xi.theta);
   const double s = std::sin(xi.theta);

@@ -112,9 +112,9 @@ std::string streamHeader(const Dataset2D& d, const std::string& source_name,
                          const std::string& name_space) {
   checkIdentifier(name_space);
   const std::vector<Step> steps = buildSteps(d, StepOrder::Online);
+  if (steps.empty()) throw std::invalid_argument("streamHeader: the dataset has no pose");
   const IncrementalRun run = runIncremental(d, IncrementalOptions{});
   const BatchResult batch = solveBatch2D(d, run.initial, BatchOptions{});
-  if (steps.empty()) throw std::invalid_argument("streamHeader: the dataset has no pose");
   const Pose2D& first = run.initial.at(steps.front().new_pose);
 
   std::string out =

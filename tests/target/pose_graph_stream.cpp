@@ -112,12 +112,11 @@ lslam::Status runStep(std::int32_t s) {
     factors[k] = factorInput(step.first_factor + k);
   }
   lslam::UpdateResult result;
-  const std::uint64_t t0 = lslam::target::ticks();
+  const std::uint64_t t0 = lslam::target::instructions();
   const lslam::Status status = g_solver.update(&pose, 1, factors, step.factor_count, &result);
   if (status == lslam::Status::Ok) g_solver.solve(false, &result);
-  const std::uint64_t t1 = lslam::target::ticks();
-  g_costs[s] =
-      StepCost{(t1 - t0) * lslam::target::kInstructionsPerTick, kindOf(step, result), result};
+  const std::uint64_t t1 = lslam::target::instructions();
+  g_costs[s] = StepCost{t1 - t0, kindOf(step, result), result};
   return status;
 }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "lslam_target/instruction_counter.h"
 #include "lslam_target/semihosting.h"
 
 namespace {
@@ -52,16 +53,21 @@ void printStep(std::int32_t index, const StepCost& c) {
       .print();
 }
 
-void printSummary(const StepCost* costs, std::int32_t count, StepKind kind) {
+// The counts of one kind of step, ascending, in g_sorted; returns how many.
+std::int32_t sortedCounts(const StepCost* costs, std::int32_t count, StepKind kind) {
   std::int32_t n = 0;
-  double sum = 0.0;
   for (std::int32_t s = 0; s < count && n < kMaxSteps; ++s) {
-    if (costs[s].kind != kind) continue;
-    g_sorted[n++] = costs[s].instructions;
-    sum += static_cast<double>(costs[s].instructions);
+    if (costs[s].kind == kind) g_sorted[n++] = costs[s].instructions;
   }
-  if (n == 0) return;
   std::sort(g_sorted, g_sorted + n);
+  return n;
+}
+
+void printSummary(const StepCost* costs, std::int32_t count, StepKind kind) {
+  const std::int32_t n = sortedCounts(costs, count, kind);
+  if (n == 0) return;
+  double sum = 0.0;
+  for (std::int32_t i = 0; i < n; ++i) sum += static_cast<double>(g_sorted[i]);
   Line()
       .text("summary ")
       .text(name(kind))
@@ -132,15 +138,14 @@ void printLoopClosureFit(const StepCost* costs, std::int32_t count, const char* 
 // back-substitution occasionally solves one more variable, which is more work, not drift.
 OdometryFigures printOdometry(const StepCost* costs, std::int32_t count) {
   OdometryFigures figures;
-  std::int32_t first = -1, last = -1, n = 0;
-  for (std::int32_t s = 0; s < count && n < kMaxSteps; ++s) {
+  std::int32_t first = -1, last = -1;
+  for (std::int32_t s = 0; s < count; ++s) {
     if (costs[s].kind != StepKind::Odometry) continue;
     if (first < 0) first = s;
     last = s;
-    g_sorted[n++] = costs[s].instructions;
   }
+  const std::int32_t n = sortedCounts(costs, count, StepKind::Odometry);
   if (n == 0) return figures;
-  std::sort(g_sorted, g_sorted + n);
   const double median = static_cast<double>(g_sorted[n / 2]);
   const double first_count = static_cast<double>(costs[first].instructions);
   figures.first_to_last =
@@ -215,7 +220,9 @@ void printWorstLoopClosure(const StepCost* costs, std::int32_t count) {
 
 OdometryFigures printStepCosts(const StepCost* costs, std::int32_t count) {
   Line()
-      .text("instructions per step (update + solve; QEMU -icount shift=0, resolution 40):")
+      .text("instructions per step (update + solve; QEMU -icount shift=0, resolution ")
+      .integer(static_cast<long long>(lslam::target::kInstructionsPerTick))
+      .text("):")
       .print();
   for (std::int32_t s = 0; s < count; ++s) printStep(s, costs[s]);
   for (StepKind kind : kKinds) printSummary(costs, count, kind);

@@ -10,7 +10,7 @@
 enum class StepKind : std::uint8_t { First, Reorder, Relinearization, LoopClosure, Odometry };
 
 struct StepCost {
-  std::uint64_t instructions = 0;   // update() + solve(), resolution 40 instructions
+  std::uint64_t instructions = 0;   // update() + solve(), resolution kInstructionsPerTick
   StepKind kind = StepKind::First;  // 0: an array of StepCost stays in .bss
   lslam::UpdateResult result;
 };

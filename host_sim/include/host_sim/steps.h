@@ -54,8 +54,6 @@ std::vector<Step> buildSteps(const Dataset2D& d, StepOrder order);
 
 // xi * z: the pose reached from xi by the relative motion z (expressed in xi's frame).
 Pose2D composeMeasurement(const Pose2D& xi, const Pose2D& z);
-// z^-1, so that composeMeasurement(composeMeasurement(x, z), invertMeasurement(z)) == x.
-Pose2D invertMeasurement(const Pose2D& z);
 // xi^-1 * xj: the pose xj seen from xi (the noise-free measurement of an edge xi -> xj).
 Pose2D relativePose(const Pose2D& xi, const Pose2D& xj);
 
