@@ -122,24 +122,6 @@ std::uint32_t IncrementalCholesky<D>::nextMark() {
 }
 
 template <int D>
-void IncrementalCholesky<D>::stagedOrCommitted(Index k, const Index*& rows, const Block*& blocks,
-                                               Index& size) const {
-  const Index s = isAffected(k) ? a_.staged_start[k] : a_.start[k];
-  size = isAffected(k) ? a_.staged_count[k] : a_.count[k];
-  rows = a_.rows + s;
-  blocks = a_.blocks + s;
-}
-
-template <int D>
-Index IncrementalCholesky<D>::stagedParent(Index k) const {
-  const Index* rows;
-  const Block* blocks;
-  Index size;
-  stagedOrCommitted(k, rows, blocks, size);
-  return size > 1 ? rows[1] : kNoIndex;
-}
-
-template <int D>
 Status IncrementalCholesky<D>::factorize(const InformationSource<D>& source,
                                          const Index* variable_at, const Index* position_of) {
   LSLAM_ASSERT(in_update_);
@@ -254,7 +236,7 @@ void IncrementalCholesky<D>::startColumn(Index k, const InformationSource<D>& so
   }
   Vector& e = a_.staged_d[k];
   e.setZero();
-  if (k < n_) {
+  if (!reordered_ && k < n_) {  // a reordered update starts from the old Schur complement instead
     // C_old(:,k) = L_old(:,k) L_old(k,k)^T and e_old = L_old(k,k) d_old: the column as it was
     // before its pivot, on the old structure (a subset of the updated one).
     const Block& l = a_.diagonal[k];
@@ -357,12 +339,7 @@ void IncrementalCholesky<D>::commit() {
     const bool had_column = !full_ && k < old_n;
     const Index old_parent = had_column ? parent(k) : kNoIndex;
     if (had_column) live_blocks_ -= a_.count[k];
-    a_.start[k] = a_.staged_start[k];
-    a_.count[k] = a_.staged_count[k];
-    live_blocks_ += a_.count[k];
-    a_.d[k] = a_.staged_d[k];
-    a_.diagonal[k] = a_.staged_diagonal[k];
-    a_.needs_solve[k] = 1;
+    installStaged(k);
     if (!full_) {
       const Index new_parent = parent(k);
       if (!had_column) {
@@ -380,6 +357,17 @@ void IncrementalCholesky<D>::commit() {
   }
   n_ = staged_columns_;
   in_update_ = false;
+}
+
+// Makes column k's staged values its committed ones.
+template <int D>
+void IncrementalCholesky<D>::installStaged(Index k) {
+  a_.start[k] = a_.staged_start[k];
+  a_.count[k] = a_.staged_count[k];
+  live_blocks_ += a_.count[k];
+  a_.d[k] = a_.staged_d[k];
+  a_.diagonal[k] = a_.staged_diagonal[k];
+  a_.needs_solve[k] = 1;
 }
 
 // Copy-on-write leaves every recomputed column at the pool tail. Left there, the tail would march
@@ -435,7 +423,6 @@ void IncrementalCholesky<D>::rollback() {
   pool_end_ = pool_mark_;
   staged_columns_ = n_;
   affected_count_ = 0;
-  reordered_ = false;
   in_update_ = false;
 }
 

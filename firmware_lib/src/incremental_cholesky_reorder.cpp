@@ -207,18 +207,8 @@ Status IncrementalCholesky<D>::factorizeReordered(const InformationSource<D>& so
     if (s != Status::Ok) return s;
   }
   // Numeric: the change of Lambda, then the old Schur complement, then right-looking over A.
-  for (Index k = top_base_; k < total; ++k) {
-    const Index start = a_.staged_start[k];
-    const Index* rows = a_.rows + start;
-    Block* blocks = a_.blocks + start;
-    for (Index i = 0; i < a_.staged_count[k]; ++i) {
-      a_.slot[rows[i]] = i;
-      blocks[i].setZero();
-    }
-    a_.staged_d[k].setZero();
-    ColumnAccumulator<D> acc(blocks, a_.slot, &a_.staged_d[k]);
-    source.assembleColumnChange(new_variable_at[k], new_position_of, acc);
-  }
+  for (Index k = top_base_; k < total; ++k)
+    startColumn(k, source, new_variable_at, new_position_of);
   for (Index r = 0; r < top_size_; ++r) {
     if (a_.affected[r] < n_) addOldClique(a_.affected[r]);
   }
@@ -281,17 +271,9 @@ void IncrementalCholesky<D>::commitReordered() {
       blocks[p] = block;
     }
   }
-  for (Index k = top_base_; k < total; ++k) {
-    a_.start[k] = a_.staged_start[k];
-    a_.count[k] = a_.staged_count[k];
-    a_.d[k] = a_.staged_d[k];
-    a_.diagonal[k] = a_.staged_diagonal[k];
-    a_.needs_solve[k] = 1;
-    live_blocks_ += a_.count[k];
-  }
+  for (Index k = top_base_; k < total; ++k) installStaged(k);
   n_ = total;
   rebuildChildLists();
-  reordered_ = false;
   in_update_ = false;
 }
 

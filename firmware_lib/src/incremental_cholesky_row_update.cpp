@@ -106,10 +106,9 @@ Status IncrementalCholesky<D>::addFactorRows(const Index* positions, const Block
   // column just rotated, so its smallest row is the updated parent.
   while (rest_size > 0) {
     const Index k = rest[0];
-    Index written = 0;
-    const Status s = rowUpdateColumn(k, rest + 1, rest_size - 1, b, written);
+    const Status s = rowUpdateColumn(k, rest + 1, rest_size - 1, b);
     if (s != Status::Ok) return s;
-    rest = a_.rows + written + 1;
+    rest = a_.rows + a_.staged_start[k] + 1;
     rest_size = a_.staged_count[k] - 1;
   }
   return Status::Ok;
@@ -121,7 +120,7 @@ Status IncrementalCholesky<D>::addFactorRows(const Index* positions, const Block
 // rows' transformed blocks in update_rows for the parent.
 template <int D>
 Status IncrementalCholesky<D>::rowUpdateColumn(Index k, const Index* pattern, Index pattern_size,
-                                               Vector& rhs, Index& written_start) {
+                                               Vector& rhs) {
   const bool staged = a_.mark[k] == row_update_mark_;
   const bool committed = !staged && k < n_;
   const Index old_start = staged ? a_.staged_start[k] : a_.start[k];
@@ -197,7 +196,6 @@ Status IncrementalCholesky<D>::rowUpdateColumn(Index k, const Index* pattern, In
   a_.staged_diagonal[k] = l_new;
   a_.staged_d[k] = d_new;
   stats_.block_products += products;
-  written_start = start;
   return Status::Ok;
 }
 
@@ -214,11 +212,10 @@ Status IncrementalCholesky<D>::finishRowUpdate() {
   return Status::Ok;
 }
 
-#define LSLAM_INSTANTIATE_ROW_UPDATE(D)                                                        \
-  template Status IncrementalCholesky<D>::addFactorRows(const Index*, const Block*, Index,     \
-                                                        const Vector&);                        \
-  template Status IncrementalCholesky<D>::rowUpdateColumn(Index, const Index*, Index, Vector&, \
-                                                          Index&);                             \
+#define LSLAM_INSTANTIATE_ROW_UPDATE(D)                                                         \
+  template Status IncrementalCholesky<D>::addFactorRows(const Index*, const Block*, Index,      \
+                                                        const Vector&);                         \
+  template Status IncrementalCholesky<D>::rowUpdateColumn(Index, const Index*, Index, Vector&); \
   template Status IncrementalCholesky<D>::finishRowUpdate();
 LSLAM_INSTANTIATE_ROW_UPDATE(2)
 LSLAM_INSTANTIATE_ROW_UPDATE(3)

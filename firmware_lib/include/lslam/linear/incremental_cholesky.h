@@ -175,9 +175,6 @@ class IncrementalCholesky {
  private:
   void queue(Index column);
   Index popSmallest();
-  bool isAffected(Index k) const { return a_.queued[k] == stamp_; }
-  void stagedOrCommitted(Index k, const Index*& rows, const Block*& blocks, Index& size) const;
-  Index stagedParent(Index k) const;
   [[nodiscard]] Status buildStructure(Index k, const InformationSource<D>& source,
                                       const Index* variable_at, const Index* position_of);
   Index addChildrenFill(Index k, std::uint32_t id, Index* rows, Index count);
@@ -202,10 +199,11 @@ class IncrementalCholesky {
                                                const Index* new_position_of);
   void addOldClique(Index j);
   void commitReordered();
+  void installStaged(Index k);
   void settleStagedColumns();
   Index packColumns(Index* columns, Index num, Index* start, const Index* count, Index write);
   [[nodiscard]] Status rowUpdateColumn(Index k, const Index* pattern, Index pattern_size,
-                                       Vector& rhs, Index& written_start);
+                                       Vector& rhs);
 
   CholeskyArrays<D> a_;
   Index n_ = 0;
