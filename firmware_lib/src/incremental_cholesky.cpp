@@ -32,6 +32,29 @@ bool invertedCholesky(const Eigen::Matrix<double, D, D>& a, Eigen::Matrix<double
   return true;
 }
 
+// x -= sum_{i >= 1} blocks[i]^T y(rows[i]), y(r) = delta[variable_at[r]]: the back-substitution's
+// inner loop. On a SIMD host the products are summed elementwise and reduced to a vector once per
+// column; a transposed block times a vector per block reduces across lanes every time (~10 % of a
+// full solve on city10000). On a scalar FPU (the Cortex-M) the direct form is the fewer
+// instructions (the elementwise one costs ~7 % more per odometry step there), so it stays.
+template <int D>
+void subtractTransposedProducts(Eigen::Matrix<double, D, 1>& x,
+                                const Eigen::Matrix<double, D, D>* blocks, const Index* rows,
+                                Index size, const Eigen::Matrix<double, D, 1>* delta,
+                                const Index* variable_at) {
+#if defined(__SSE2__) || defined(__ARM_NEON)
+  Eigen::Matrix<double, D, D> acc = Eigen::Matrix<double, D, D>::Zero();
+  for (Index i = 1; i < size; ++i) {
+    acc += blocks[i].cwiseProduct(delta[variable_at[rows[i]]].template replicate<1, D>());
+  }
+  x -= acc.colwise().sum().transpose();
+#else
+  for (Index i = 1; i < size; ++i) {
+    x.noalias() -= blocks[i].transpose() * delta[variable_at[rows[i]]];
+  }
+#endif
+}
+
 }  // namespace
 
 template <int D>
@@ -471,6 +494,7 @@ Index IncrementalCholesky<D>::backSubstitute(Vector* delta, const Index* variabl
                                              double tolerance, bool full, Index* visited) {
   LSLAM_ASSERT(!in_update_);
   const std::uint32_t changed = nextMark();
+  std::uint32_t* const mark = a_.mark;
   Index* stack = a_.heap;
   Index top = 0;
   Index solved = 0;
@@ -483,19 +507,18 @@ Index IncrementalCholesky<D>::backSubstitute(Vector* delta, const Index* variabl
     const Block* blocks = columnBlocks(k);
     const Index size = a_.count[k];
     Vector x = a_.d[k];
-    bool depends_on_change = false;
-    for (Index i = 1; i < size; ++i) {
-      x.noalias() -= blocks[i].transpose() * delta[variable_at[rows[i]]];
-      depends_on_change = depends_on_change || a_.mark[rows[i]] == changed;
-    }
+    subtractTransposedProducts<D>(x, blocks, rows, size, delta, variable_at);
     Vector& out = delta[variable_at[k]];
     const Vector updated = blocks[0].transpose() * x;
     const bool moved = (updated - out).cwiseAbs().maxCoeff() > tolerance;
     out = updated;
     a_.needs_solve[k] = 0;
     visited[solved++] = k;
-    if (moved) a_.mark[k] = changed;
-    const bool descend = full || moved || depends_on_change;
+    if (moved) mark[k] = changed;
+    // A column that did not move still passes on the moves of the rows it refers to: its
+    // children refer to them too (their structure lies in k's and k itself).
+    bool descend = full || moved;
+    for (Index i = 1; !descend && i < size; ++i) descend = mark[rows[i]] == changed;
     for (Index c = a_.first_child[k]; c != kNoIndex; c = a_.next_sibling[c]) {
       if (descend || a_.needs_solve[c] != 0) stack[top++] = c;
     }
