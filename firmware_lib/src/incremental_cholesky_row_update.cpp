@@ -154,7 +154,6 @@ Status IncrementalCholesky<D>::rowUpdateColumn(Index k, const Index* pattern, In
   const Block* old_blocks = a_.blocks + old_start;
   Index i = 1;
   Index j = 0;
-  std::int64_t products = 0;
   while (i < old_size || j < pattern_size) {
     const Index r_old = i < old_size ? old_rows[i] : kNoIndex;
     const Index r_new = j < pattern_size ? pattern[j] : kNoIndex;
@@ -175,10 +174,13 @@ Status IncrementalCholesky<D>::rowUpdateColumn(Index k, const Index* pattern, In
       ++j;
       l_r = old_blocks[i++];
     }
-    h.apply(l_r, a_.update_rows[r]);
-    products += 3;  // the D reflections: D (2 D^2 + 2 D) multiply-adds, ~2.7 block products
     rows[size++] = r;
   }
+  // The reflections in a loop of their own, after the merge: inside the merge's data-dependent
+  // branching loop the whole row update ran ~20 % slower (measured on city10000's dense top).
+  for (Index b = 1; b < size; ++b) h.apply(blocks[b], a_.update_rows[rows[b]]);
+  // The D reflections per row block: D (2 D^2 + 2 D) multiply-adds, ~2.7 block products.
+  const std::int64_t products = 3 * static_cast<std::int64_t>(size - 1);
   // The right-hand side is one more row: [d(k)^T b^T].
   Eigen::Matrix<double, 1, D> d_row = d_old.transpose();
   Eigen::Matrix<double, 1, D> b_row = rhs.transpose();
