@@ -7,9 +7,6 @@
 namespace lslam {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kTwoPi = 2.0 * kPi;
-
 // Below this angle the coefficients whose closed forms are merely 0/0 at w = 0 (sin(w)/w,
 // (w/2)cot(w/2)) switch to two-term Taylor series; the dropped w^4 terms are < 1e-17 here.
 constexpr double kTinyAngle = 1e-4;
@@ -19,26 +16,27 @@ constexpr double kTinyAngle = 1e-4;
 // 0.3 balances the two errors: at the switch both are below 4e-14 relative.
 constexpr double kSeriesAngle = 0.3;
 
-// sin(w)/w
-double sinc(double w) noexcept {
+// sin(w)/w, given sin_w = sin(w) (the callers need sin(w) for more than one coefficient).
+double sinc(double w, double sin_w) noexcept {
   if (std::abs(w) < kTinyAngle) return 1.0 - w * w / 6.0;
-  return sinCos(w).sin / w;
+  return sin_w / w;
 }
 
 // (1 - cos w)/w^2, formed as (1/2) sinc(w/2)^2: the direct 1 - cos w cancels for small w.
 double versineOverSquare(double w) noexcept {
-  const double s = sinc(0.5 * w);
+  const double h = 0.5 * w;
+  const double s = sinc(h, sinCos(h).sin);
   return 0.5 * s * s;
 }
 
-// (w - sin w)/w^2
-double sineDefectOverSquare(double w) noexcept {
+// (w - sin w)/w^2, given sin_w = sin(w).
+double sineDefectOverSquare(double w, double sin_w) noexcept {
   if (std::abs(w) < kSeriesAngle) {
     const double w2 = w * w;
     return w * (1.0 / 6.0 + w2 * (-1.0 / 120.0 +
                                   w2 * (1.0 / 5040.0 + w2 * (-1.0 / 362880.0 + w2 / 39916800.0))));
   }
-  return (w - sinCos(w).sin) / (w * w);
+  return (w - sin_w) / (w * w);
 }
 
 // (w/2) cot(w/2): the scale of the inverse of the V matrix of Exp. Written as h cos(h) / sin(h),
@@ -50,14 +48,15 @@ double halfCotScale(double w) noexcept {
   return h * sc.cos / sc.sin;
 }
 
-// ((w/2) cot(w/2) - 1)/w, the translation coupling of the inverse right Jacobian.
-double halfCotDefect(double w) noexcept {
+// ((w/2) cot(w/2) - 1)/w, the translation coupling of the inverse right Jacobian, given
+// k = halfCotScale(w).
+double halfCotDefect(double w, double k) noexcept {
   if (std::abs(w) < kSeriesAngle) {
     const double w2 = w * w;
     return -w * (1.0 / 12.0 + w2 * (1.0 / 720.0 + w2 * (1.0 / 30240.0 +
                                                         w2 * (1.0 / 1209600.0 + w2 / 47900160.0))));
   }
-  return (halfCotScale(w) - 1.0) / w;
+  return (k - 1.0) / w;
 }
 
 // Ad(X^-1) for X = (x, y, theta) with c = cos(theta), s = sin(theta). It carries a right
@@ -71,19 +70,6 @@ Mat3 adjointOfInverse(double x, double y, double c, double s) noexcept {
 }
 
 }  // namespace
-
-double wrapAngle(double angle) noexcept {
-  if (angle > -kPi && angle <= kPi) return angle;  // the common case costs one comparison pair
-  // Sums and differences of two wrapped angles lie within 3 pi. There one shift by 2 pi is exact
-  // (Sterbenz: the operands are within a factor of two) and equals the IEEE remainder below, at
-  // a fixed cost: a heading that crosses the cut must not make a step dearer on the target.
-  if (angle > kPi && angle <= 3.0 * kPi) return angle - kTwoPi;
-  if (angle <= -kPi && angle > -3.0 * kPi) return angle + kTwoPi;
-  // The IEEE remainder is exact and lies in [-pi, pi]; only -pi needs moving to the open end.
-  double r = std::remainder(angle, kTwoPi);
-  if (r <= -kPi) r += kTwoPi;
-  return r;
-}
 
 SE2::SE2(double x, double y, double theta) noexcept : x_(x), y_(y), theta_(wrapAngle(theta)) {}
 
@@ -159,11 +145,12 @@ SE2 SE2::exp(const Vec3& tau, Mat3* J_r) noexcept {
   const double vx = tau(0);
   const double vy = tau(1);
   const double w = tau(2);
-  const double a = sinc(w);
+  const double sin_w = sinCos(w).sin;
+  const double a = sinc(w, sin_w);
   const double e = versineOverSquare(w);
   const double b = w * e;
   if (J_r != nullptr) {
-    const double g = sineDefectOverSquare(w);
+    const double g = sineDefectOverSquare(w, sin_w);
     *J_r << a, b, g * vx - e * vy,  //
         -b, a, g * vy + e * vx,     //
         0.0, 0.0, 1.0;
@@ -180,7 +167,7 @@ Vec3 SE2::log(Mat3* J_r_inv) const noexcept {
   const double vx = k * x_ + h * y_;
   const double vy = -h * x_ + k * y_;
   if (J_r_inv != nullptr) {
-    const double p = halfCotDefect(theta_);
+    const double p = halfCotDefect(theta_, k);
     *J_r_inv << k, -h, -p * vx + 0.5 * vy,  //
         h, k, -p * vy - 0.5 * vx,           //
         0.0, 0.0, 1.0;

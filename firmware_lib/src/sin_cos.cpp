@@ -3,7 +3,7 @@
 #include <cmath>
 #include <limits>
 
-#include "lslam/geometry/se2.h"
+#include "lslam/geometry/angle.h"
 
 namespace lslam {
 namespace {

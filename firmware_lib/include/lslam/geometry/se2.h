@@ -8,14 +8,11 @@
 // named J_<result>_<input> that may be nullptr, so callers on the hot path only pay for what
 // they use.
 #include "lslam/eigen.h"
+#include "lslam/geometry/angle.h"
 
 namespace lslam {
 
 using Mat23 = Eigen::Matrix<double, 2, 3>;
-
-// Maps any finite angle to (-pi, pi]. Exact: no rounding error is added for |angle| <= pi, and
-// the result for larger angles is the exact IEEE remainder w.r.t. the double nearest 2*pi.
-double wrapAngle(double angle) noexcept;
 
 class SE2 {
  public:
