@@ -4,6 +4,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <functional>
 #include <memory>
 #include <numeric>
 #include <random>
@@ -91,7 +92,8 @@ class DenseSource final : public lslam::InformationSource<3> {
 };
 
 constexpr Index kMaxColumns = 80;
-using Storage = lslam::StaticCholeskyStorage<3, kMaxColumns, 20000>;
+constexpr Index kPoolBlocks = 20000;
+using Storage = lslam::StaticCholeskyStorage<3, kMaxColumns, kPoolBlocks>;
 
 // The factor as a dense lower-triangular matrix, in column (position) order.
 Eigen::MatrixXd denseFactor(const lslam::IncrementalCholesky<3>& chol) {
@@ -143,9 +145,17 @@ void checkAgainstDense(const lslam::IncrementalCholesky<3>& chol, const DenseSou
                  eta.cwiseAbs().maxCoeff()));
 }
 
+// The storage's arrays with the pool cut to `max_blocks` (the solver sees only the view).
+lslam::CholeskyArrays<3> withPool(lslam::CholeskyArrays<3> arrays, Index max_blocks) {
+  arrays.max_blocks = std::min(arrays.max_blocks, max_blocks);
+  return arrays;
+}
+
 struct Harness {
+  explicit Harness(Index max_blocks = kPoolBlocks) : chol(withPool(storage.arrays(), max_blocks)) {}
+
   Storage storage;
-  lslam::IncrementalCholesky<3> chol{storage.arrays()};
+  lslam::IncrementalCholesky<3> chol;
   DenseSource source;
   std::vector<Index> variable_at, position_of;
 
@@ -262,6 +272,81 @@ TEST_CASE("full refactorization under a new ordering equals dense LLT of the per
       h->source.addFactor(old, v, rng);
       REQUIRE(h->update(1, {{v - 1, v}, {old, v}}) == lslam::Status::Ok);
       checkAgainstDense(h->chol, h->source, h->variable_at);
+    }
+  }
+}
+
+// The order in which backSubstitute visits the columns, from the committed parents alone: the
+// roots, then depth first, each column before its subtree, larger siblings first.
+std::vector<Index> solveOrder(const lslam::IncrementalCholesky<3>& chol) {
+  const Index n = chol.columns();
+  std::vector<std::vector<Index>> children(static_cast<std::size_t>(n + 1));
+  for (Index k = 0; k < n; ++k) {
+    const Index p = chol.parent(k);
+    children[static_cast<std::size_t>(p == lslam::kNoIndex ? n : p)].push_back(k);
+  }
+  std::vector<Index> order;
+  std::function<void(Index)> visit = [&](Index k) {
+    if (k != n) order.push_back(k);
+    const auto& c = children[static_cast<std::size_t>(k)];
+    for (auto it = c.rbegin(); it != c.rend(); ++it) visit(*it);
+  };
+  visit(n);
+  return order;
+}
+
+// A factor grown by updates, compacted, then refactorized under a random order (more fill than
+// the grown one, so the fresh columns start below the live size). Returns the pool end before the
+// refactorization.
+Index growAndRefactorShuffled(Harness& h, unsigned seed) {
+  std::mt19937 rng(seed);
+  for (Index step = 0; step < 40; ++step) {
+    const std::vector<std::pair<Index, Index>> touched = h.growOneStep(rng);
+    lslam::Status s = h.update(1, touched);
+    if (s == lslam::Status::CapacityExhausted) {  // a tight pool: squeeze out garbage, retry
+      h.chol.compact();
+      s = h.update(1, touched);
+    }
+    REQUIRE(s == lslam::Status::Ok);
+  }
+  h.chol.compact();
+  std::shuffle(h.variable_at.begin(), h.variable_at.end(), rng);
+  for (Index k = 0; k < h.source.size(); ++k) h.position_of[h.variable_at[k]] = k;
+  const Index pool_before = h.chol.poolEnd();
+  h.refactorFully();
+  return pool_before;
+}
+
+TEST_CASE("a full refactorization leaves the factor in back-substitution order when it has room") {
+  for (unsigned seed = 300; seed < 310; ++seed) {
+    CAPTURE(seed);
+    // A dry run learns the sizes, then the same sequence runs with ample room and with room for
+    // the refactorization but not for a second copy of the factor.
+    auto dry = std::make_unique<Harness>();
+    const Index pool_before = growAndRefactorShuffled(*dry, seed);
+    const Index live = dry->chol.liveBlocks();
+    REQUIRE(pool_before < live);  // the fresh columns overlap the front: the copy needs room
+    for (const Index pool : {kPoolBlocks, pool_before + live + 1}) {
+      CAPTURE(pool);
+      auto h = std::make_unique<Harness>(pool);
+      REQUIRE(growAndRefactorShuffled(*h, seed) == pool_before);
+      checkAgainstDense(h->chol, h->source, h->variable_at);
+      const std::vector<Index> order = solveOrder(h->chol);
+      REQUIRE(static_cast<Index>(order.size()) == h->chol.columns());
+      bool consecutive = true;
+      for (std::size_t i = 1; i < order.size(); ++i) {
+        consecutive =
+            consecutive && h->chol.columnRows(order[i]) ==
+                               h->chol.columnRows(order[i - 1]) + h->chol.columnSize(order[i - 1]);
+      }
+      if (pool >= pool_before + 2 * live) {
+        CHECK(consecutive);
+        CHECK(h->chol.poolEnd() == live);
+        CHECK(h->chol.columnRows(order.front()) + live ==
+              h->chol.columnRows(order.back()) + h->chol.columnSize(order.back()));
+      } else {
+        CHECK(h->chol.poolEnd() == pool_before + live);  // no room: left where it was
+      }
     }
   }
 }

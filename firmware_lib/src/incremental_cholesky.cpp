@@ -380,6 +380,7 @@ void IncrementalCholesky<D>::commit() {
   }
   n_ = staged_columns_;
   in_update_ = false;
+  if (full_) layoutForSolve();
 }
 
 // Makes column k's staged values its committed ones.

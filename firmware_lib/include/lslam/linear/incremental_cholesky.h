@@ -27,6 +27,8 @@
 // grow is copied back over its old blocks and the others are packed where the staging began (see
 // settleStagedColumns), so only the old versions of grown columns become garbage, which
 // compact() squeezes out.
+// After a full refactorization the live columns are rewritten to the front of the pool in the
+// order the back-substitution visits them (see layoutForSolve), which the copy-back then keeps.
 //
 // Storage of a column k: its first block is the *inverse* of the diagonal block, L(k,k)^-1, because
 // every later use (forward and back substitution) needs the inverse; then the blocks L(r, k) for
@@ -201,6 +203,7 @@ class IncrementalCholesky {
   void commitReordered();
   void installStaged(Index k);
   void settleStagedColumns();
+  void layoutForSolve();
   Index packColumns(Index* columns, Index num, Index* start, const Index* count, Index write);
   [[nodiscard]] Status rowUpdateColumn(Index k, const Index* pattern, Index pattern_size,
                                        Vector& rhs);

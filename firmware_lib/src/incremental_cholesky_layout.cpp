@@ -1,0 +1,62 @@
+// The pool layout for the back-substitution (IncrementalCholesky::layoutForSolve).
+//
+// Rewrites the live columns to the front of the pool in the order backSubstitute visits them
+// (root first, depth first, children in descending order), so that a solve reads the pool
+// forwards instead of jumping from column to column: a full solve of city10000's factor at 9,000
+// poses takes ~220 us instead of ~315 us. Later updates keep the layout for every column whose
+// structure does not grow (see settleStagedColumns); grown and added columns go to the tail until
+// the next full refactorization lays the factor out again.
+//
+// The columns are written straight to the front when every one lies beyond the live size (after
+// a full refactorization, which leaves the fresh columns above the old ones); otherwise through
+// the free tail, then moved down. Without room for either, the layout stays as it is.
+//
+// In a file of its own: added to incremental_cholesky.cpp, it changed the compiler's inlining
+// there and cost the Cortex-M ~4 % more instructions per odometry step.
+#include <algorithm>
+#include <cstring>
+
+#include "lslam/linear/incremental_cholesky.h"
+
+namespace lslam {
+
+template <int D>
+void IncrementalCholesky<D>::layoutForSolve() {
+  LSLAM_ASSERT(!in_update_);
+  Index lowest = pool_end_;
+  for (Index k = 0; k < n_; ++k) lowest = std::min(lowest, a_.start[k]);
+  Index base = 0;
+  if (lowest < live_blocks_) {
+    if (pool_end_ + live_blocks_ > a_.max_blocks) return;
+    base = pool_end_;
+  }
+  Index* stack = a_.heap;
+  Index top = 0;
+  Index write = base;
+  for (Index c = a_.first_child[a_.max_columns]; c != kNoIndex; c = a_.next_sibling[c]) {
+    stack[top++] = c;
+  }
+  while (top > 0) {
+    const Index k = stack[--top];
+    const Index from = a_.start[k];
+    const Index size = a_.count[k];
+    std::memcpy(a_.rows + write, a_.rows + from, sizeof(Index) * static_cast<std::size_t>(size));
+    for (Index b = 0; b < size; ++b) a_.blocks[write + b] = a_.blocks[from + b];
+    a_.start[k] = write - base;
+    write += size;
+    for (Index c = a_.first_child[k]; c != kNoIndex; c = a_.next_sibling[c]) stack[top++] = c;
+  }
+  LSLAM_ASSERT(write - base == live_blocks_);
+  if (base != 0) {
+    // Downwards, so a forward copy never overwrites what it has still to read.
+    std::memmove(a_.rows, a_.rows + base, sizeof(Index) * static_cast<std::size_t>(live_blocks_));
+    for (Index b = 0; b < live_blocks_; ++b) a_.blocks[b] = a_.blocks[base + b];
+  }
+  pool_end_ = live_blocks_;
+}
+
+template void IncrementalCholesky<2>::layoutForSolve();
+template void IncrementalCholesky<3>::layoutForSolve();
+template void IncrementalCholesky<6>::layoutForSolve();
+
+}  // namespace lslam
