@@ -50,6 +50,8 @@ void printStep(std::int32_t index, const StepCost& c) {
       .integer(c.result.variables_relinearized)
       .text(" factor_blocks ")
       .integer(c.result.factor_blocks)
+      .text(" compacted ")
+      .integer(c.result.compacted ? 1 : 0)
       .print();
 }
 
