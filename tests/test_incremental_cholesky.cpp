@@ -96,17 +96,18 @@ constexpr Index kPoolBlocks = 20000;
 using Storage = lslam::StaticCholeskyStorage<3, kMaxColumns, kPoolBlocks>;
 
 // The factor as a dense lower-triangular matrix, in column (position) order.
-Eigen::MatrixXd denseFactor(const lslam::IncrementalCholesky<3>& chol) {
+template <int D>
+Eigen::MatrixXd denseFactor(const lslam::IncrementalCholesky<D>& chol) {
   const Index n = chol.columns();
-  Eigen::MatrixXd l = Eigen::MatrixXd::Zero(3 * n, 3 * n);
+  Eigen::MatrixXd l = Eigen::MatrixXd::Zero(D * n, D * n);
   for (Index k = 0; k < n; ++k) {
     const Index* rows = chol.columnRows(k);
-    const Block* blocks = chol.columnBlocks(k);
+    const auto* blocks = chol.columnBlocks(k);
     REQUIRE(rows[0] == k);
-    l.block<3, 3>(3 * k, 3 * k) = blocks[0].inverse();
+    l.block<D, D>(D * k, D * k) = blocks[0].inverse();
     for (Index i = 1; i < chol.columnSize(k); ++i) {
       REQUIRE(rows[i] > rows[i - 1]);
-      l.block<3, 3>(3 * rows[i], 3 * k) = blocks[i];
+      l.block<D, D>(D * rows[i], D * k) = blocks[i];
     }
   }
   return l;
@@ -200,6 +201,13 @@ struct Harness {
   void refactorFully() {
     chol.beginUpdate(0, true);
     REQUIRE(chol.factorize(source, variable_at.data(), position_of.data()) == lslam::Status::Ok);
+    chol.commit();
+    source.commit();
+  }
+
+  // Ends a row update begun with chol.beginUpdate() and commits it.
+  void finishRowUpdate() {
+    REQUIRE(chol.finishRowUpdate() == lslam::Status::Ok);
     chol.commit();
     source.commit();
   }
@@ -417,7 +425,7 @@ TEST_CASE("a reordered update of the affected top equals dense LLT in the new or
     auto colamd = std::make_unique<ColamdStorage>();
     lslam::ColamdOrdering ordering(colamd->arrays());
     std::uniform_int_distribution<int> coin(0, 3);
-    Index reordered_updates = 0;
+    Index orders_changed = 0;  // updates whose fresh order differs from the one they started in
     for (Index step = 0; step < 60; ++step) {
       const Index v = h->source.size();
       const std::vector<std::pair<Index, Index>> touched = h->growOneStep(rng);
@@ -443,9 +451,9 @@ TEST_CASE("a reordered update of the affected top equals dense LLT in the new or
       REQUIRE(s == lslam::Status::Ok);
       h->chol.commit();
       h->source.commit();
+      if (new_variable_at != h->variable_at) ++orders_changed;
       h->variable_at = new_variable_at;
       h->position_of = new_position_of;
-      ++reordered_updates;
       // The new variable is last, so the next odometry step touches the last columns only.
       CHECK(h->variable_at.back() == v);
       std::vector<Index> sorted = h->variable_at;
@@ -460,7 +468,7 @@ TEST_CASE("a reordered update of the affected top equals dense LLT in the new or
         checkAgainstDense(h->chol, h->source, h->variable_at);
       }
     }
-    CHECK(reordered_updates == 60);
+    CHECK(orders_changed > 0);  // the reordering was exercised, not only the identity
   }
 }
 
@@ -513,9 +521,7 @@ TEST_CASE(
           const Index b = std::uniform_int_distribution<Index>(a + 1, v - 1)(rng);
           REQUIRE(addRows(*h, b, a, rng) == lslam::Status::Ok);
         }
-        REQUIRE(h->chol.finishRowUpdate() == lslam::Status::Ok);
-        h->chol.commit();
-        h->source.commit();
+        h->finishRowUpdate();
         ++row_updates;
       }
       checkAgainstDense(h->chol, h->source, h->variable_at);
@@ -546,9 +552,7 @@ TEST_CASE("row update: back-substitution after it equals the dense solution") {
       REQUIRE(addRows(*h, std::uniform_int_distribution<Index>(0, v - 1)(rng), v, rng) ==
               lslam::Status::Ok);
     }
-    REQUIRE(h->chol.finishRowUpdate() == lslam::Status::Ok);
-    h->chol.commit();
-    h->source.commit();
+    h->finishRowUpdate();
     h->chol.backSubstitute(delta.data(), h->variable_at.data(), 1e-10, false, visited.data());
     const Eigen::VectorXd x = h->source.lambda.llt().solve(h->source.eta);
     for (Index k = 0; k <= v; ++k) {
@@ -663,14 +667,9 @@ void checkRowUpdatesForBlockSize(unsigned seed) {
     chol.commit();
     chol.compact();  // the replaced columns are garbage; the pool is sized for the live ones
     const Index n = v + 1;
-    Eigen::MatrixXd l = Eigen::MatrixXd::Zero(D * n, D * n);
+    const Eigen::MatrixXd l = denseFactor(chol);
     Eigen::VectorXd d(D * n);
-    for (Index k = 0; k < n; ++k) {
-      l.block<D, D>(D * k, D * k) = chol.columnBlocks(k)[0].inverse();
-      for (Index i = 1; i < chol.columnSize(k); ++i)
-        l.block<D, D>(D * chol.columnRows(k)[i], D * k) = chol.columnBlocks(k)[i];
-      d.segment<D>(D * k) = chol.rhs(k);
-    }
+    for (Index k = 0; k < n; ++k) d.segment<D>(D * k) = chol.rhs(k);
     const Eigen::MatrixXd a = lambda.topLeftCorner(D * n, D * n);
     CHECK((l * l.transpose() - a).cwiseAbs().maxCoeff() <= 1e-12 * a.cwiseAbs().maxCoeff());
     CHECK((l * d - eta.head(D * n)).cwiseAbs().maxCoeff() <=
