@@ -130,12 +130,14 @@ void PoseGraphSolver2D::forgetNewIds(const PoseInput* poses, Index num_poses) {
 }
 
 // Reorder the whole graph (and refactorize every column) when the factor has grown well past what
-// the last ordering produced, or when the last update had to walk a long elimination-tree path (a
-// loop closure far back in the order).
+// the last ordering produced, when the updates since have spent more extra work on that growth
+// than the ordering's factorization cost (see reorder_excess_ratio), or when the last update had to
+// walk a long elimination-tree path (a loop closure far back in the order).
 bool PoseGraphSolver2D::wantsReorder(Index new_variables) const {
   const Index n = graph_.variables() + new_variables;
   if (n < options_.reorder_min_variables) return false;
   if (blocks_at_last_order_ == 0) return true;
+  if (excess_budget_ > 0 && excess_work_ > excess_budget_) return true;
   return cholesky_.liveBlocks() >
              static_cast<Index>(options_.reorder_growth * blocks_at_last_order_) ||
          (options_.reorder_path_columns > 0 &&
@@ -152,6 +154,26 @@ bool PoseGraphSolver2D::relinearizesMost(Index relinearized) const {
   const Index committed = cholesky_.columns();
   return committed >= options_.reorder_min_variables &&
          relinearized > static_cast<Index>(options_.reorder_relinearized_share * committed);
+}
+
+// The work an update spent on the growth of the factor since the last ordering is estimated as its
+// block products times that growth (an update's work scales with the structure of the columns it
+// touches), summed and set against reorder_excess_ratio times the block products of the ordering's
+// own factorization. Both are kept scaled by the factor's size at the ordering (products x blocks)
+// in integers, the budget computed once per ordering: per update only an integer multiply-add and
+// compare, whose cost does not depend on the values (a division, or a conversion of the sum to
+// double in software, made the Cortex-M's odometry steps dearer as the sum grew).
+void PoseGraphSolver2D::noteOrderingWork(bool reordered, std::int64_t block_products) {
+  if (reordered) {
+    blocks_at_last_order_ = cholesky_.liveBlocks();
+    excess_budget_ = static_cast<std::int64_t>(options_.reorder_excess_ratio *
+                                               static_cast<double>(block_products) *
+                                               static_cast<double>(blocks_at_last_order_));
+    excess_work_ = 0;
+    return;
+  }
+  const Index growth = cholesky_.liveBlocks() - blocks_at_last_order_;
+  if (blocks_at_last_order_ > 0 && growth > 0) excess_work_ += block_products * growth;
 }
 
 bool PoseGraphSolver2D::orderingFresh() const {
@@ -295,7 +317,7 @@ Status PoseGraphSolver2D::refactor(Index new_poses, Index relinearized, bool all
   for (Index i = 0; i < relinearized; ++i) a_.delta[a_.marked[i]].setZero();
   for (Index v = n; v < n + new_poses; ++v) a_.delta[v].setZero();
   const FactorizationStats& stats = cholesky_.lastStats();
-  if (reorder) blocks_at_last_order_ = cholesky_.liveBlocks();
+  noteOrderingWork(reorder, stats.block_products);
   last_columns_refactored_ = full ? 0 : stats.columns_recomputed;
   r.reordered = reorder;
   r.refactored_fully = full;

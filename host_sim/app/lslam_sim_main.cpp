@@ -34,7 +34,8 @@ int usage() {
                "                 [--relinearize-threshold T] [--relinearize-skip N]\n"
                "                 [--relinearize-urgent T]\n"
                "                 [--backsub-tolerance T]\n"
-               "                 [--reorder-growth G] [--reorder-path COLUMNS]\n"
+               "                 [--reorder-growth G] [--reorder-excess R]\n"
+               "                 [--reorder-path COLUMNS]\n"
                "                 [--reorder-relinearized SHARE] [--reorder-refresh G]\n"
                "                 [--reorder-top] [--no-row-updates]\n"
                "       lslam-sim generate OUT.g2o [--poses N] [--seed S]\n");
@@ -236,6 +237,8 @@ int main(int argc, char** argv) {
         args.solver.backsubstitution_tolerance = std::atof(argv[++i]);
       } else if (a == "--reorder-growth" && has_value) {
         args.solver.reorder_growth = std::atof(argv[++i]);
+      } else if (a == "--reorder-excess" && has_value) {
+        args.solver.reorder_excess_ratio = std::atof(argv[++i]);
       } else if (a == "--reorder-top") {
         args.solver.reorder_affected_top = true;
       } else if (a == "--no-row-updates") {

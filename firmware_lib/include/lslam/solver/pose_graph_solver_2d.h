@@ -95,6 +95,7 @@ class PoseGraphSolver2D {
   bool wantsReorder(Index new_variables) const;
   bool relinearizesMost(Index relinearized) const;
   bool orderingFresh() const;
+  void noteOrderingWork(bool reordered, std::int64_t block_products);
   Status computeOrdering(Index* variable_at, Index* position_of);
   Index stageCandidates();
   Index stageEveryMovedVariable(double tolerance);
@@ -124,6 +125,10 @@ class PoseGraphSolver2D {
   Index first_new_factor_ = 0;
   Index blocks_at_last_order_ = 0;
   Index last_columns_refactored_ = 0;
+  // Work spent on the factor's growth since the last ordering, and the budget for it (both
+  // products x blocks; 0: no budget). See noteOrderingWork.
+  std::int64_t excess_work_ = 0;
+  std::int64_t excess_budget_ = 0;
   Index updates_since_relinearization_ = 0;
   bool relinearization_urgent_ = false;  // a waiting candidate passed the urgent threshold
 };

@@ -28,6 +28,12 @@ struct SolverOptions {
   // Ordering policy (see README "Ordering policy"): the whole graph is reordered with COLAMD (the
   // newest variable last) when the factor has grown by this factor since the last ordering...
   double reorder_growth = 1.5;
+  // ...or when the updates since the last ordering have spent more work on the factor's growth
+  // (each update's block products times the growth since the ordering) than this many times the
+  // block products of the ordering's factorization: a rent-or-buy rule, so that a graph whose loop
+  // closures run through a large top (city10000) reorders sooner than one whose loop closures are
+  // cheap next to a refactorization (manhattanOlson3500). 0: off.
+  double reorder_excess_ratio = 2.0;
   // ...or when one update recomputed more than this many columns (a long etree path; 0: off).
   Index reorder_path_columns = 600;
   // ...or when an update relinearizes more than this share of the variables, which refactorizes
