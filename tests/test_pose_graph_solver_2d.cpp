@@ -42,7 +42,7 @@ Estimate2D estimateOf(const PoseGraphSolver2D& solver) {
 
 // Feeds one online step; returns the status.
 Status feedStep(PoseGraphSolver2D& solver, const Dataset2D& d, const Step& step,
-                Estimate2D& initial) {
+                Estimate2D& initial, lslam::UpdateResult* result = nullptr) {
   PoseInput pose;
   pose.id = step.new_pose;
   Pose2D init{};
@@ -57,7 +57,7 @@ Status feedStep(PoseGraphSolver2D& solver, const Dataset2D& d, const Step& step,
   initial[pose.id] = Pose2D{pose.initial.x(), pose.initial.y(), pose.initial.theta()};
   std::vector<FactorInput> factors;
   for (std::size_t e : step.edges) factors.push_back(toFactorInput(d.edges[e]));
-  return solver.update(&pose, 1, factors.data(), static_cast<Index>(factors.size()));
+  return solver.update(&pose, 1, factors.data(), static_cast<Index>(factors.size()), result);
 }
 
 double maxPositionDiff(const Estimate2D& a, const Estimate2D& b) {
@@ -121,6 +121,56 @@ TEST_CASE("with the recomputing update only and relinearization at every update,
 
 TEST_CASE("with reordered updates of the affected top, too") {
   checkTracksBatch(UpdatePaths{true, true, true});
+}
+
+TEST_CASE("the rent-or-buy rule reorders exactly when the growth work passes its budget") {
+  // The rule re-derived from what every update reports: after an ordering, the budget is
+  // ratio x (its factorization's block products) x (its factor blocks); every later update adds
+  // its block products x the factor's growth since the ordering; the first update that starts
+  // with the sum past the budget reorders. The other triggers are off.
+  for (const double ratio : {0.0, 0.25, 1.0}) {
+    CAPTURE(ratio);
+    for (std::uint32_t seed = 40; seed < 44; ++seed) {
+      CAPTURE(seed);
+      SyntheticOptions o;
+      o.poses = 300;
+      o.seed = seed;
+      const Dataset2D d = generateManhattanWorld(o).dataset;
+      const std::vector<Step> steps = buildSteps(d, StepOrder::Online);
+      SolverOptions options;
+      options.reorder_min_variables = 20;
+      options.reorder_growth = 1e9;
+      options.reorder_path_columns = 0;
+      options.reorder_relinearized_share = 2.0;  // never a full refactorization for relinearizing
+      options.reorder_excess_ratio = ratio;
+      auto solver = std::make_unique<SmallSolver>(options);
+      Estimate2D initial;
+      std::int64_t budget = 0;
+      std::int64_t excess = 0;
+      Index base = 0;
+      int orderings = 0;
+      for (std::size_t s = 0; s < steps.size(); ++s) {
+        CAPTURE(s);
+        lslam::UpdateResult r;
+        REQUIRE(feedStep(*solver, d, steps[s], initial, &r) == Status::Ok);
+        if (base > 0) CHECK(r.reordered == (budget > 0 && excess > budget));
+        if (r.reordered) {
+          ++orderings;
+          base = r.factor_blocks;
+          budget = static_cast<std::int64_t>(ratio * static_cast<double>(r.block_products) *
+                                             static_cast<double>(base));
+          excess = 0;
+        } else if (base > 0 && r.factor_blocks > base) {
+          excess += r.block_products * (r.factor_blocks - base);
+        }
+      }
+      if (ratio == 0.0) {
+        CHECK(orderings == 1);  // only the first, at reorder_min_variables
+      } else {
+        CHECK(orderings > 1);
+      }
+    }
+  }
 }
 
 TEST_CASE("optimize() reaches the batch optimum") {

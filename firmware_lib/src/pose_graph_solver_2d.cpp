@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "lslam/factors/information.h"
 #include "lslam/factors/se2_factors.h"
@@ -138,8 +139,9 @@ bool PoseGraphSolver2D::wantsReorder(Index new_variables) const {
   if (n < options_.reorder_min_variables) return false;
   if (blocks_at_last_order_ == 0) return true;
   if (excess_budget_ > 0 && excess_work_ > excess_budget_) return true;
-  return cholesky_.liveBlocks() >
-             static_cast<Index>(options_.reorder_growth * blocks_at_last_order_) ||
+  // Compared in double: a huge factor (a trigger switched off) must not overflow an Index.
+  return static_cast<double>(cholesky_.liveBlocks()) >
+             options_.reorder_growth * static_cast<double>(blocks_at_last_order_) ||
          (options_.reorder_path_columns > 0 &&
           last_columns_refactored_ > options_.reorder_path_columns);
 }
@@ -153,7 +155,8 @@ bool PoseGraphSolver2D::wantsReorder(Index new_variables) const {
 bool PoseGraphSolver2D::relinearizesMost(Index relinearized) const {
   const Index committed = cholesky_.columns();
   return committed >= options_.reorder_min_variables &&
-         relinearized > static_cast<Index>(options_.reorder_relinearized_share * committed);
+         static_cast<double>(relinearized) >
+             options_.reorder_relinearized_share * static_cast<double>(committed);
 }
 
 // The work an update spent on the growth of the factor since the last ordering is estimated as its
@@ -166,9 +169,10 @@ bool PoseGraphSolver2D::relinearizesMost(Index relinearized) const {
 void PoseGraphSolver2D::noteOrderingWork(bool reordered, std::int64_t block_products) {
   if (reordered) {
     blocks_at_last_order_ = cholesky_.liveBlocks();
-    excess_budget_ = static_cast<std::int64_t>(options_.reorder_excess_ratio *
-                                               static_cast<double>(block_products) *
-                                               static_cast<double>(blocks_at_last_order_));
+    const double budget = options_.reorder_excess_ratio * static_cast<double>(block_products) *
+                          static_cast<double>(blocks_at_last_order_);
+    excess_budget_ = budget < 9e18 ? static_cast<std::int64_t>(budget)
+                                   : std::numeric_limits<std::int64_t>::max();
     excess_work_ = 0;
     return;
   }
@@ -178,8 +182,8 @@ void PoseGraphSolver2D::noteOrderingWork(bool reordered, std::int64_t block_prod
 
 bool PoseGraphSolver2D::orderingFresh() const {
   return blocks_at_last_order_ > 0 &&
-         cholesky_.liveBlocks() <=
-             static_cast<Index>(options_.reorder_refresh_growth * blocks_at_last_order_);
+         static_cast<double>(cholesky_.liveBlocks()) <=
+             options_.reorder_refresh_growth * static_cast<double>(blocks_at_last_order_);
 }
 
 // COLAMD on the factor-variable incidence of every variable except the newest committed one,
