@@ -22,6 +22,14 @@ namespace {
 
 using SmallSolver = StaticPoseGraphSolver2D<400, 1200, 60000>;
 
+// A random synthetic Manhattan world of `poses` poses.
+Dataset2D syntheticWorld(int poses, std::uint32_t seed) {
+  SyntheticOptions o;
+  o.poses = poses;
+  o.seed = seed;
+  return generateManhattanWorld(o).dataset;
+}
+
 // The dataset restricted to the edges of steps [0, last].
 Dataset2D prefix(const Dataset2D& d, const std::vector<Step>& steps, std::size_t last) {
   Dataset2D out;
@@ -77,10 +85,7 @@ struct UpdatePaths {
 void checkTracksBatch(const UpdatePaths& paths) {
   for (std::uint32_t seed = 1; seed <= 12; ++seed) {
     CAPTURE(seed);
-    SyntheticOptions o;
-    o.poses = 200;
-    o.seed = seed;
-    const Dataset2D d = generateManhattanWorld(o).dataset;
+    const Dataset2D d = syntheticWorld(200, seed);
     const std::vector<Step> steps = buildSteps(d, StepOrder::Online);
     SolverOptions options;
     options.relinearize_threshold = 1e-3;
@@ -132,10 +137,7 @@ TEST_CASE("the rent-or-buy rule reorders exactly when the growth work passes its
     CAPTURE(ratio);
     for (std::uint32_t seed = 40; seed < 44; ++seed) {
       CAPTURE(seed);
-      SyntheticOptions o;
-      o.poses = 300;
-      o.seed = seed;
-      const Dataset2D d = generateManhattanWorld(o).dataset;
+      const Dataset2D d = syntheticWorld(300, seed);
       const std::vector<Step> steps = buildSteps(d, StepOrder::Online);
       SolverOptions options;
       options.reorder_min_variables = 20;
@@ -176,10 +178,7 @@ TEST_CASE("the rent-or-buy rule reorders exactly when the growth work passes its
 TEST_CASE("optimize() reaches the batch optimum") {
   for (std::uint32_t seed = 20; seed < 26; ++seed) {
     CAPTURE(seed);
-    SyntheticOptions o;
-    o.poses = 150;
-    o.seed = seed;
-    const Dataset2D d = generateManhattanWorld(o).dataset;
+    const Dataset2D d = syntheticWorld(150, seed);
     const std::vector<Step> steps = buildSteps(d, StepOrder::Online);
     SolverOptions options;
     options.relinearize_threshold = 0.5;  // deliberately coarse: optimize() must fix it
