@@ -95,6 +95,7 @@ class PoseGraphSolver2D {
   bool wantsReorder(Index new_variables) const;
   bool relinearizesMost(Index relinearized) const;
   bool orderingFresh() const;
+  bool likelyOutOfPool(bool full, Index relinearized, const Index* position_of) const;
   void noteOrderingWork(bool reordered, std::int64_t block_products);
   Status computeOrdering(Index* variable_at, Index* position_of);
   Index stageCandidates();
@@ -125,6 +126,7 @@ class PoseGraphSolver2D {
   Index first_new_factor_ = 0;
   Index blocks_at_last_order_ = 0;
   Index last_columns_refactored_ = 0;
+  Index largest_staging_ = 0;  // the most pool blocks an update other than a full one staged
   // Work spent on the factor's growth since the last ordering, and the budget for it (both
   // products x blocks; 0: no budget). See noteOrderingWork.
   std::int64_t excess_work_ = 0;
