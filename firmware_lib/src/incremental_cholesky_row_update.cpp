@@ -126,8 +126,9 @@ Status IncrementalCholesky<D>::addFactorRows(const Index* positions, const Block
 
 // Rotates column k (its latest version: staged by this update, committed, or empty if added) with
 // the update rows of k and of `pattern` (rows below k, ascending, their blocks in update_rows).
-// Writes the updated column to the pool tail with structure old rows + pattern, and leaves the
-// rows' transformed blocks in update_rows for the parent.
+// Writes the updated column to the pool tail with structure old rows + pattern (or, when this
+// update staged it already and its rows cover the pattern, where it is), and leaves the rows'
+// transformed blocks in update_rows for the parent.
 template <int D>
 Status IncrementalCholesky<D>::rowUpdateColumn(Index k, const Index* pattern, Index pattern_size,
                                                Vector& rhs) {
@@ -163,45 +164,12 @@ Status IncrementalCholesky<D>::rowUpdateColumn(Index k, const Index* pattern, In
   const Index start = in_place ? old_start : pool_end_;
   Index* rows = a_.rows + start;
   Block* blocks = a_.blocks + start;
-  Index size = 1;
+  Index size = old_size;
   if (in_place) {
-    // W(r) is zero for the rows the factor's rows do not reach.
-    Index j = 0;
-    for (; size < old_size; ++size) {
-      if (j < pattern_size && pattern[j] == rows[size]) {
-        ++j;
-      } else {
-        a_.update_rows[rows[size]].setZero();
-      }
-    }
+    zeroUnreachedRows(rows, size, pattern, pattern_size);
   } else {
-    rows[0] = k;
-    // Merge the old rows (from 1) with the pattern; both ascending.
-    const Block* old_blocks = a_.blocks + old_start;
-    Index i = 1;
-    Index j = 0;
-    while (i < old_size || j < pattern_size) {
-      const Index r_old = i < old_size ? old_rows[i] : kNoIndex;
-      const Index r_new = j < pattern_size ? pattern[j] : kNoIndex;
-      Index r;
-      // The row block [L(r,k) W(r)], with W(r) zero for a row the factor's rows do not reach yet
-      // and L(r,k) zero for fill.
-      Block& l_r = blocks[size];
-      if (r_new == kNoIndex || (r_old != kNoIndex && r_old < r_new)) {
-        r = r_old;
-        l_r = old_blocks[i++];
-        a_.update_rows[r].setZero();
-      } else if (r_old == kNoIndex || r_new < r_old) {
-        r = r_new;
-        ++j;
-        l_r.setZero();
-      } else {
-        r = r_old;
-        ++j;
-        l_r = old_blocks[i++];
-      }
-      rows[size++] = r;
-    }
+    size = stageMergedRows(k, old_rows, a_.blocks + old_start, old_size, pattern, pattern_size,
+                           rows, blocks);
   }
   // The reflections in a loop of their own, after the merge: inside the merge's data-dependent
   // branching loop the whole row update ran ~20 % slower (measured on city10000's dense top).
@@ -228,6 +196,55 @@ Status IncrementalCholesky<D>::rowUpdateColumn(Index k, const Index* pattern, In
   return Status::Ok;
 }
 
+// An in-place column: W(r) is zero for the rows (from 1) the factor's rows do not reach.
+template <int D>
+void IncrementalCholesky<D>::zeroUnreachedRows(const Index* rows, Index size, const Index* pattern,
+                                               Index pattern_size) {
+  Index j = 0;
+  for (Index b = 1; b < size; ++b) {
+    if (j < pattern_size && pattern[j] == rows[b]) {
+      ++j;
+    } else {
+      a_.update_rows[rows[b]].setZero();
+    }
+  }
+}
+
+// Writes column k's structure, its old rows (from 1) merged with the pattern (both ascending),
+// and the row blocks [L(r,k) W(r)] to rows/blocks/update_rows: W(r) zero for a row the factor's
+// rows do not reach yet, L(r,k) zero for fill. Returns the column's size.
+template <int D>
+Index IncrementalCholesky<D>::stageMergedRows(Index k, const Index* old_rows,
+                                              const Block* old_blocks, Index old_size,
+                                              const Index* pattern, Index pattern_size, Index* rows,
+                                              Block* blocks) {
+  rows[0] = k;
+  Index size = 1;
+  Index i = 1;
+  Index j = 0;
+  while (i < old_size || j < pattern_size) {
+    const Index r_old = i < old_size ? old_rows[i] : kNoIndex;
+    const Index r_new = j < pattern_size ? pattern[j] : kNoIndex;
+    Index r;
+    Block& l_r = blocks[size];
+    if (r_new == kNoIndex || (r_old != kNoIndex && r_old < r_new)) {
+      r = r_old;
+      l_r = old_blocks[i++];
+      a_.update_rows[r].setZero();
+    } else if (r_old == kNoIndex || r_new < r_old) {
+      r = r_new;
+      ++j;
+      l_r.setZero();
+    } else {
+      r = r_old;
+      ++j;
+      l_r = old_blocks[i++];
+    }
+    rows[size++] = r;
+  }
+  return size;
+}
+
 template <int D>
 Status IncrementalCholesky<D>::finishRowUpdate() {
   LSLAM_ASSERT(in_update_ && !full_);
@@ -241,10 +258,14 @@ Status IncrementalCholesky<D>::finishRowUpdate() {
   return Status::Ok;
 }
 
-#define LSLAM_INSTANTIATE_ROW_UPDATE(D)                                                         \
-  template Status IncrementalCholesky<D>::addFactorRows(const Index*, const Block*, Index,      \
-                                                        const Vector&);                         \
-  template Status IncrementalCholesky<D>::rowUpdateColumn(Index, const Index*, Index, Vector&); \
+#define LSLAM_INSTANTIATE_ROW_UPDATE(D)                                                            \
+  template Status IncrementalCholesky<D>::addFactorRows(const Index*, const Block*, Index,         \
+                                                        const Vector&);                            \
+  template Status IncrementalCholesky<D>::rowUpdateColumn(Index, const Index*, Index, Vector&);    \
+  template void IncrementalCholesky<D>::zeroUnreachedRows(const Index*, Index, const Index*,       \
+                                                          Index);                                  \
+  template Index IncrementalCholesky<D>::stageMergedRows(Index, const Index*, const Block*, Index, \
+                                                         const Index*, Index, Index*, Block*);     \
   template Status IncrementalCholesky<D>::finishRowUpdate();
 LSLAM_INSTANTIATE_ROW_UPDATE(2)
 LSLAM_INSTANTIATE_ROW_UPDATE(3)

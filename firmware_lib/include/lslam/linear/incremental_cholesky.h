@@ -207,6 +207,9 @@ class IncrementalCholesky {
   Index packColumns(Index* columns, Index num, Index* start, const Index* count, Index write);
   [[nodiscard]] Status rowUpdateColumn(Index k, const Index* pattern, Index pattern_size,
                                        Vector& rhs);
+  void zeroUnreachedRows(const Index* rows, Index size, const Index* pattern, Index pattern_size);
+  Index stageMergedRows(Index k, const Index* old_rows, const Block* old_blocks, Index old_size,
+                        const Index* pattern, Index pattern_size, Index* rows, Block* blocks);
 
   CholeskyArrays<D> a_;
   Index n_ = 0;
