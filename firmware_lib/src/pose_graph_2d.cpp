@@ -146,9 +146,7 @@ void PoseGraph2D::visitNeighbours(Index variable, NeighbourVisitor& visitor) con
   for (Index e = a_.first_entry[variable]; e != kNoIndex; e = a_.next_entry[e]) {
     const Index f = a_.entry_factor[e];
     if (a_.kind[f] != FactorKind::BetweenSE2) continue;
-    const Index other =
-        a_.first_variable[f] == variable ? a_.second_variable[f] : a_.first_variable[f];
-    visitor.visit(other);
+    visitor.visit(otherVariable(f, variable));
   }
 }
 
@@ -194,7 +192,7 @@ void PoseGraph2D::assembleColumn(Index variable, const Index* position, ColumnAc
     }
     const Index i = a_.first_variable[f];
     const Index k = a_.second_variable[f];
-    const Index other = i == variable ? k : i;
+    const Index other = otherVariable(f, variable);
     if (position[other] < position[variable]) continue;  // assembled with the earlier column
     Mat3 j_i;
     Mat3 j_k;
@@ -221,8 +219,7 @@ void PoseGraph2D::assembleColumnChange(Index variable, const Index* position,
     const Index f = a_.entry_factor[e];
     const bool is_new = f >= committed_factors_;
     if (!is_new) {
-      const Index other =
-          a_.first_variable[f] == variable ? a_.second_variable[f] : a_.first_variable[f];
+      const Index other = otherVariable(f, variable);
       if (!self_moved && (other == kNoIndex || !isStaged(other))) continue;
       addContribution(f, variable, position, true, -1.0, acc);
     }

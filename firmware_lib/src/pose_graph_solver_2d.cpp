@@ -240,11 +240,12 @@ Status PoseGraphSolver2D::update(const PoseInput* poses, Index num_poses,
       graph_.addBetween(ids_.find(in.from), ids_.find(in.to), in.measurement, in.information);
     }
   }
-  const bool relinearize_now = relinearization_urgent_ || wantsReorder(num_poses) ||
+  const bool ordering_stale = wantsReorder(num_poses);
+  const bool relinearize_now = relinearization_urgent_ || ordering_stale ||
                                (options_.relinearize_skip > 0 &&
                                 updates_since_relinearization_ + 1 >= options_.relinearize_skip);
   const Index relinearized = relinearize_now ? stageCandidates() : 0;
-  s = refactor(num_poses, relinearized, true, r);
+  s = refactor(num_poses, relinearized, true, ordering_stale, r);
   if (s != Status::Ok) {
     forgetNewIds(poses, num_poses);
     return s;
@@ -286,10 +287,11 @@ Index PoseGraphSolver2D::stageEveryMovedVariable(double tolerance) {
 
 // Factorizes the staged graph change (added poses at the end, relinearized variables in a_.marked),
 // reordering first if the policy says so; commits everything or rolls the graph back.
+// ordering_stale is wantsReorder() as update() evaluated it (false when !allow_reorder).
 Status PoseGraphSolver2D::refactor(Index new_poses, Index relinearized, bool allow_reorder,
-                                   UpdateResult& r) {
+                                   bool ordering_stale, UpdateResult& r) {
+  LSLAM_ASSERT(allow_reorder || !ordering_stale);
   const Index n = cholesky_.columns();
-  const bool ordering_stale = allow_reorder && wantsReorder(new_poses);
   bool full = ordering_stale || (allow_reorder && relinearizesMost(relinearized));
   bool reorder = ordering_stale || (full && !orderingFresh());
   int buffer = active_;
@@ -522,7 +524,7 @@ Status PoseGraphSolver2D::optimize(Index max_iterations, double tolerance, Updat
       break;
     }
     UpdateResult step;
-    const Status s = refactor(0, relinearized, false, step);
+    const Status s = refactor(0, relinearized, false, false, step);
     if (s != Status::Ok) {
       r.status = s;
       return s;

@@ -74,18 +74,14 @@ Mat3 adjointOfInverse(double x, double y, double c, double s) noexcept {
 SE2::SE2(double x, double y, double theta) noexcept : x_(x), y_(y), theta_(wrapAngle(theta)) {}
 
 Mat2 SE2::rotation() const noexcept {
-  const SinCos sc = sinCos(theta_);
-  const double c = sc.cos;
-  const double s = sc.sin;
+  const auto [s, c] = sinCos(theta_);
   Mat2 r;
   r << c, -s, s, c;
   return r;
 }
 
 SE2 SE2::compose(const SE2& b, Mat3* J_c_a, Mat3* J_c_b) const noexcept {
-  const SinCos sc = sinCos(theta_);
-  const double c = sc.cos;
-  const double s = sc.sin;
+  const auto [s, c] = sinCos(theta_);
   if (J_c_a != nullptr) {
     const SinCos b_sc = sinCos(b.theta_);
     *J_c_a = adjointOfInverse(b.x_, b.y_, b_sc.cos, b_sc.sin);
@@ -95,9 +91,7 @@ SE2 SE2::compose(const SE2& b, Mat3* J_c_a, Mat3* J_c_b) const noexcept {
 }
 
 SE2 SE2::inverse(Mat3* J_inv_a) const noexcept {
-  const SinCos sc = sinCos(theta_);
-  const double c = sc.cos;
-  const double s = sc.sin;
+  const auto [s, c] = sinCos(theta_);
   if (J_inv_a != nullptr) {
     // -Ad(a): a right perturbation of a becomes a left one of a^-1, with the sign flipped.
     *J_inv_a << -c, s, -y_,  //
@@ -108,9 +102,7 @@ SE2 SE2::inverse(Mat3* J_inv_a) const noexcept {
 }
 
 SE2 SE2::between(const SE2& b, Mat3* J_d_a, Mat3* J_d_b) const noexcept {
-  const SinCos sc = sinCos(theta_);
-  const double c = sc.cos;
-  const double s = sc.sin;
+  const auto [s, c] = sinCos(theta_);
   const double dx = b.x_ - x_;
   const double dy = b.y_ - y_;
   const SE2 d(c * dx + s * dy, -s * dx + c * dy, b.theta_ - theta_);
@@ -124,9 +116,7 @@ SE2 SE2::between(const SE2& b, Mat3* J_d_a, Mat3* J_d_b) const noexcept {
 }
 
 Vec2 SE2::transformFrom(const Vec2& p_local, Mat23* J_p_a, Mat2* J_p_p) const noexcept {
-  const SinCos sc = sinCos(theta_);
-  const double c = sc.cos;
-  const double s = sc.sin;
+  const auto [s, c] = sinCos(theta_);
   const double rx = c * p_local.x() - s * p_local.y();
   const double ry = s * p_local.x() + c * p_local.y();
   if (J_p_a != nullptr) {

@@ -25,9 +25,7 @@ namespace {
 
 // [R(theta) 0; 0 1]
 Mat3 rotationBlock(double theta) noexcept {
-  const SinCos sc = sinCos(theta);
-  const double c = sc.cos;
-  const double s = sc.sin;
+  const auto [s, c] = sinCos(theta);
   Mat3 m;
   m << c, -s, 0.0,  //
       s, c, 0.0,    //
@@ -39,12 +37,8 @@ Mat3 rotationBlock(double theta) noexcept {
 
 Vec3 betweenErrorSE2(const SE2& xi, const SE2& xj, const SE2& z, Mat3* J_e_xi,
                      Mat3* J_e_xj) noexcept {
-  const SinCos sci = sinCos(xi.theta());
-  const SinCos scz = sinCos(z.theta());
-  const double ci = sci.cos;
-  const double si = sci.sin;
-  const double cz = scz.cos;
-  const double sz = scz.sin;
+  const auto [si, ci] = sinCos(xi.theta());
+  const auto [sz, cz] = sinCos(z.theta());
   const double wx = xj.x() - xi.x();
   const double wy = xj.y() - xi.y();
   // d: translation of xi^-1 xj
@@ -65,9 +59,7 @@ Vec3 betweenErrorSE2(const SE2& xi, const SE2& xj, const SE2& z, Mat3* J_e_xi,
 }
 
 Vec3 priorErrorSE2(const SE2& x, const SE2& z, Mat3* J_e_x) noexcept {
-  const SinCos scz = sinCos(z.theta());
-  const double cz = scz.cos;
-  const double sz = scz.sin;
+  const auto [sz, cz] = sinCos(z.theta());
   const double ex = x.x() - z.x();
   const double ey = x.y() - z.y();
   const double e_theta = wrapAngle(x.theta() - z.theta());

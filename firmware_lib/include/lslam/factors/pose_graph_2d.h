@@ -82,6 +82,11 @@ class PoseGraph2D final : public InformationSource<3> {
 
  private:
   bool isStaged(Index variable) const { return in_update_ && a_.staged[variable] == stamp_; }
+  // The factor's other variable (kNoIndex for a prior).
+  Index otherVariable(Index factor, Index variable) const {
+    return a_.first_variable[factor] == variable ? a_.second_variable[factor]
+                                                 : a_.first_variable[factor];
+  }
   // Adds sign * (the factor's share of Lambda's column `variable`, and of eta), linearized at the
   // current points (committed == false) or at the committed ones.
   void addContribution(Index factor, Index variable, const Index* position, bool committed,

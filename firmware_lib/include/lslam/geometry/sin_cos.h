@@ -11,6 +11,7 @@
 
 namespace lslam {
 
+// Sine first, then cosine: `const auto [s, c] = sinCos(angle);` binds both.
 struct SinCos {
   double sin = 0.0;
   double cos = 1.0;

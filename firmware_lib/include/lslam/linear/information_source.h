@@ -39,7 +39,7 @@ class ColumnAccumulator {
 };
 
 // Receives, during a full factorization, the diagonal blocks and eta of columns after the one
-// being assembled (see InformationSource::assembleColumnOnce).
+// being assembled (see InformationSource::assembleColumn).
 template <int D>
 class LaterDiagonals {
  public:

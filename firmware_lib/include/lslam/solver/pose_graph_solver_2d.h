@@ -100,7 +100,8 @@ class PoseGraphSolver2D {
   Status computeOrdering(Index* variable_at, Index* position_of);
   Index stageCandidates();
   Index stageEveryMovedVariable(double tolerance);
-  Status refactor(Index new_poses, Index relinearized, bool allow_reorder, UpdateResult& result);
+  Status refactor(Index new_poses, Index relinearized, bool allow_reorder, bool ordering_stale,
+                  UpdateResult& result);
   Status factorizeWithRetry(bool full, bool allow_top_reorder, Index new_columns,
                             const Index* variable_at, const Index* position_of, Index relinearized,
                             bool* top_reordered, UpdateResult& result);
