@@ -5,6 +5,7 @@
 #include <cstring>
 
 #include "lower_triangular.h"
+#include "lslam/linear/block_kernels.h"
 #include "rows_after_collector.h"
 
 namespace lslam {
@@ -335,11 +336,18 @@ void IncrementalCholesky<D>::scatter(const Index* rows, const Block* blocks, Ind
     a_.staged_d[s].noalias() += l_sk_t.transpose() * d;
     target[0].noalias() += blocks[a] * l_sk_t;
     // rows[a+1..] is a subset of the target's rows, both ascending: merge.
+    if constexpr (D == 3) {
+      if (detail::cpuHasAvx()) {
+        detail::addBlockProductsAvx(blocks, rows, a + 1, size, l_sk_t, target_rows, target);
+        stats_.block_products += size - a;
+        continue;
+      }
+    }
     Index p = 1;
     for (Index b = a + 1; b < size; ++b) {
       while (target_rows[p] < rows[b]) ++p;
       LSLAM_DEBUG_ASSERT(p < target_size && target_rows[p] == rows[b]);
-      target[p].noalias() += blocks[b] * l_sk_t;
+      detail::addBlockProduct<D>(target[p], blocks[b], l_sk_t);
     }
     static_cast<void>(target_size);
     stats_.block_products += size - a;

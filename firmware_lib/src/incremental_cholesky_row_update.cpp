@@ -16,6 +16,7 @@
 #include <cstring>
 
 #include "lower_triangular.h"
+#include "lslam/linear/block_kernels.h"
 #include "lslam/linear/incremental_cholesky.h"
 
 namespace lslam {
@@ -36,11 +37,7 @@ struct RowReflections {
   // [x_l x_w] H_0 ... H_{D-1} for the rows of x_l (any count), in place.
   template <typename XL, typename XW>
   void apply(XL& x_l, XW& x_w) const {
-    for (int j = 0; j < D; ++j) {
-      const auto s = (beta(j) * (x_l.col(j) + x_w * u.col(j))).eval();
-      x_l.col(j) -= s;
-      x_w.noalias() -= s * u.col(j).transpose();
-    }
+    detail::applyRowReflections<D>(u, beta, x_l, x_w);
   }
 };
 
@@ -173,7 +170,12 @@ Status IncrementalCholesky<D>::rowUpdateColumn(Index k, const Index* pattern, In
   }
   // The reflections in a loop of their own, after the merge: inside the merge's data-dependent
   // branching loop the whole row update ran ~20 % slower (measured on city10000's dense top).
-  for (Index b = 1; b < size; ++b) h.apply(blocks[b], a_.update_rows[rows[b]]);
+  bool reflected = false;
+  if constexpr (D == 3) {
+    reflected = detail::cpuHasAvx();
+    if (reflected) detail::applyRowReflectionsAvx(h.u, h.beta, blocks, rows, size, a_.update_rows);
+  }
+  for (Index b = 1; !reflected && b < size; ++b) h.apply(blocks[b], a_.update_rows[rows[b]]);
   // The D reflections per row block: D (2 D^2 + 2 D) multiply-adds, ~2.7 block products.
   const std::int64_t products = 3 * static_cast<std::int64_t>(size - 1);
   // The right-hand side is one more row: [d(k)^T b^T].

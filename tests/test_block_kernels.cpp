@@ -1,0 +1,128 @@
+// The block kernels (lslam/linear/block_kernels.h): the portable forms against dense Eigen
+// references (the block product, and the reflections as explicit 2D x 2D matrices), and the AVX
+// forms bit for bit against the portable forms, on many random cases from a fixed seed.
+#include <doctest/doctest.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <random>
+#include <vector>
+
+#include "lslam/linear/block_kernels.h"
+
+namespace {
+
+using lslam::Index;
+
+template <int D>
+Eigen::Matrix<double, D, D> randomBlock(std::mt19937& rng) {
+  std::uniform_real_distribution<double> uniform(-2.0, 2.0);
+  Eigen::Matrix<double, D, D> m;
+  for (int c = 0; c < D; ++c) {
+    for (int r = 0; r < D; ++r) m(r, c) = uniform(rng);
+  }
+  return m;
+}
+
+// H_0 ... H_{D-1} as one dense 2D x 2D matrix.
+template <int D>
+Eigen::Matrix<double, 2 * D, 2 * D> denseReflections(const Eigen::Matrix<double, D, D>& u,
+                                                     const Eigen::Matrix<double, D, 1>& beta) {
+  using Square = Eigen::Matrix<double, 2 * D, 2 * D>;
+  Square q = Square::Identity();
+  for (int j = 0; j < D; ++j) {
+    Eigen::Matrix<double, 2 * D, 1> v;
+    for (int i = 0; i < D; ++i) {
+      v(i) = i == j ? 1.0 : 0.0;
+      v(D + i) = u(i, j);
+    }
+    q = (q * (Square::Identity() - beta(j) * v * v.transpose())).eval();
+  }
+  return q;
+}
+
+template <int D>
+void checkPortableForms(int cases) {
+  std::mt19937 rng(17 + D);
+  for (int n = 0; n < cases; ++n) {
+    const auto b = randomBlock<D>(rng);
+    const auto s = randomBlock<D>(rng);
+    auto t = randomBlock<D>(rng);
+    const Eigen::Matrix<double, D, D> expected = t + b * s;
+    lslam::detail::addBlockProduct<D>(t, b, s);
+    CHECK((t - expected).cwiseAbs().maxCoeff() < 1e-12);
+
+    const auto u = randomBlock<D>(rng);
+    const Eigen::Matrix<double, D, 1> beta = randomBlock<D>(rng).col(0).cwiseAbs();
+    auto x_l = randomBlock<D>(rng);
+    auto x_w = randomBlock<D>(rng);
+    Eigen::Matrix<double, D, 2 * D> x;
+    x << x_l, x_w;
+    const Eigen::Matrix<double, D, 2 * D> reflected = x * denseReflections<D>(u, beta);
+    lslam::detail::applyRowReflections<D>(u, beta, x_l, x_w);
+    CHECK((x_l - reflected.template leftCols<D>()).cwiseAbs().maxCoeff() < 1e-10);
+    CHECK((x_w - reflected.template rightCols<D>()).cwiseAbs().maxCoeff() < 1e-10);
+  }
+}
+
+bool sameBits(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
+  return std::equal(a.data(), a.data() + 9, b.data());
+}
+
+}  // namespace
+
+TEST_CASE("the portable block kernels match dense products and explicit reflections") {
+  checkPortableForms<2>(300);
+  checkPortableForms<3>(300);
+  checkPortableForms<6>(300);
+}
+
+TEST_CASE("the AVX block kernels compute the portable forms' bits") {
+  if (!lslam::detail::cpuHasAvx()) {
+    MESSAGE("skipped: this CPU has no AVX (the portable forms run everywhere)");
+    return;
+  }
+  std::mt19937 rng(5);
+  std::uniform_int_distribution<int> size_of(2, 40);
+  std::bernoulli_distribution keep(0.6);
+  for (int n = 0; n < 200; ++n) {
+    // A column (rows[0] is its own) and a target column whose rows hold every row of it.
+    const int size = size_of(rng);
+    std::vector<Index> target_rows{0};
+    std::vector<Index> rows{0};
+    for (Index r = 1; static_cast<int>(rows.size()) < size; ++r) {
+      target_rows.push_back(r);
+      if (keep(rng)) rows.push_back(r);
+    }
+    std::vector<Eigen::Matrix3d> blocks(rows.size());
+    for (auto& b : blocks) b = randomBlock<3>(rng);
+    std::vector<Eigen::Matrix3d> target(target_rows.size());
+    for (auto& t : target) t = randomBlock<3>(rng);
+    const Eigen::Matrix3d s = randomBlock<3>(rng);
+    const Index first = std::min<Index>(1 + n % 3, size - 1);
+
+    std::vector<Eigen::Matrix3d> expected = target;
+    for (Index b = first; b < size; ++b) {
+      const Index p = static_cast<Index>(
+          std::lower_bound(target_rows.begin(), target_rows.end(), rows[b]) - target_rows.begin());
+      lslam::detail::addBlockProduct<3>(expected[p], blocks[b], s);
+    }
+    lslam::detail::addBlockProductsAvx(blocks.data(), rows.data(), first, size, s,
+                                       target_rows.data(), target.data());
+    for (std::size_t p = 0; p < target.size(); ++p) CHECK(sameBits(target[p], expected[p]));
+
+    // The reflections on the column's row blocks, with W kept per row as in the row update.
+    const Eigen::Matrix3d u = randomBlock<3>(rng);
+    const Eigen::Vector3d beta = randomBlock<3>(rng).col(0).cwiseAbs();
+    std::vector<Eigen::Matrix3d> w(target_rows.size());
+    for (auto& x : w) x = randomBlock<3>(rng);
+    std::vector<Eigen::Matrix3d> blocks_expected = blocks;
+    std::vector<Eigen::Matrix3d> w_expected = w;
+    for (Index b = 1; b < size; ++b) {
+      lslam::detail::applyRowReflections<3>(u, beta, blocks_expected[b], w_expected[rows[b]]);
+    }
+    lslam::detail::applyRowReflectionsAvx(u, beta, blocks.data(), rows.data(), size, w.data());
+    for (std::size_t b = 0; b < blocks.size(); ++b) CHECK(sameBits(blocks[b], blocks_expected[b]));
+    for (std::size_t r = 0; r < w.size(); ++r) CHECK(sameBits(w[r], w_expected[r]));
+  }
+}
