@@ -128,6 +128,28 @@ TEST_CASE("with reordered updates of the affected top, too") {
   checkTracksBatch(UpdatePaths{true, true, true});
 }
 
+TEST_CASE(
+    "the first ordering comes with the update that brings the graph to reorder_min_variables") {
+  for (std::uint32_t seed = 50; seed < 54; ++seed) {
+    CAPTURE(seed);
+    const Dataset2D d = syntheticWorld(60, seed);
+    const std::vector<Step> steps = buildSteps(d, StepOrder::Online);
+    SolverOptions options;
+    options.reorder_min_variables = 20;
+    auto solver = std::make_unique<SmallSolver>(options);
+    Estimate2D initial;
+    Index variables = 0;
+    Index first_ordering_at = 0;
+    for (std::size_t s = 0; s < steps.size() && first_ordering_at == 0; ++s) {
+      lslam::UpdateResult r;
+      REQUIRE(feedStep(*solver, d, steps[s], initial, &r) == Status::Ok);
+      variables += r.variables_added;
+      if (r.reordered) first_ordering_at = variables;
+    }
+    CHECK(first_ordering_at == options.reorder_min_variables);
+  }
+}
+
 TEST_CASE("the rent-or-buy rule reorders exactly when the growth work passes its budget") {
   // The rule re-derived from what every update reports: after an ordering, the budget is
   // ratio x (its factorization's block products) x (its factor blocks); every later update adds

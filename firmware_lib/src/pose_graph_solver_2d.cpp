@@ -134,9 +134,9 @@ void PoseGraphSolver2D::forgetNewIds(const PoseInput* poses, Index num_poses) {
 // the last ordering produced, when the updates since have spent more extra work on that growth
 // than the ordering's factorization cost (see reorder_excess_ratio), or when the last update had to
 // walk a long elimination-tree path (a loop closure far back in the order).
-bool PoseGraphSolver2D::wantsReorder(Index new_variables) const {
-  const Index n = graph_.variables() + new_variables;
-  if (n < options_.reorder_min_variables) return false;
+bool PoseGraphSolver2D::wantsReorder() const {
+  // The update's poses are already in the staged graph.
+  if (graph_.variables() < options_.reorder_min_variables) return false;
   if (blocks_at_last_order_ == 0) return true;
   if (excess_budget_ > 0 && excess_work_ > excess_budget_) return true;
   // Compared in double: a huge factor (a trigger switched off) must not overflow an Index.
@@ -240,7 +240,7 @@ Status PoseGraphSolver2D::update(const PoseInput* poses, Index num_poses,
       graph_.addBetween(ids_.find(in.from), ids_.find(in.to), in.measurement, in.information);
     }
   }
-  const bool ordering_stale = wantsReorder(num_poses);
+  const bool ordering_stale = wantsReorder();
   const bool relinearize_now = relinearization_urgent_ || ordering_stale ||
                                (options_.relinearize_skip > 0 &&
                                 updates_since_relinearization_ + 1 >= options_.relinearize_skip);

@@ -92,7 +92,7 @@ class PoseGraphSolver2D {
   Status checkAnchored(const PoseInput* poses, Index num_poses, const FactorInput* factors,
                        Index num_factors) const;
   void forgetNewIds(const PoseInput* poses, Index num_poses);
-  bool wantsReorder(Index new_variables) const;
+  bool wantsReorder() const;
   bool relinearizesMost(Index relinearized) const;
   bool orderingFresh() const;
   bool likelyOutOfPool(bool full, Index relinearized, const Index* position_of) const;
