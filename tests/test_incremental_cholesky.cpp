@@ -284,6 +284,53 @@ TEST_CASE("full refactorization under a new ordering equals dense LLT of the per
   }
 }
 
+// The longest chain of columns whose structures nest (parent k + 1, one row more than it): the
+// supernodes a full factorization on an AVX host works through together.
+Index longestNestedChain(const lslam::IncrementalCholesky<3>& chol) {
+  Index longest = 1;
+  Index run = 1;
+  for (Index k = 0; k + 1 < chol.columns(); ++k) {
+    const bool nested = chol.parent(k) == k + 1 && chol.columnSize(k) == chol.columnSize(k + 1) + 1;
+    run = nested ? run + 1 : 1;
+    longest = std::max(longest, run);
+  }
+  return longest;
+}
+
+TEST_CASE("a full refactorization through long chains of nested columns equals dense LLT") {
+  for (unsigned seed = 150; seed < 156; ++seed) {
+    CAPTURE(seed);
+    std::mt19937 rng(seed);
+    auto h = std::make_unique<Harness>();
+    for (Index v = 0; v < 60; ++v) {
+      h->addVariable();
+      if (v == 0) {
+        h->source.addPrior(0);
+        REQUIRE(h->update(1, {{0, 0}}) == lslam::Status::Ok);
+        continue;
+      }
+      std::vector<std::pair<Index, Index>> touched{{v - 1, v}};
+      h->source.addFactor(v - 1, v, rng);
+      for (int loop = 0; loop < 3; ++loop) {  // many loop closures: a dense trailing part
+        const Index old = std::uniform_int_distribution<Index>(0, v - 1)(rng);
+        h->source.addFactor(old, v, rng);
+        touched.emplace_back(old, v);
+      }
+      lslam::Status s = h->update(1, touched);
+      if (s == lslam::Status::CapacityExhausted) {  // garbage of grown columns: squeeze, retry
+        h->chol.compact();
+        s = h->update(1, touched);
+      }
+      REQUIRE(s == lslam::Status::Ok);
+    }
+    h->chol.compact();
+    h->refactorFully();
+    checkAgainstDense(h->chol, h->source, h->variable_at);
+    // Long enough to be split (chains are taken at most 8 columns at a time).
+    CHECK(longestNestedChain(h->chol) > 20);
+  }
+}
+
 // The order in which backSubstitute visits the columns, from the committed parents alone: the
 // roots, then depth first, each column before its subtree, larger siblings first.
 std::vector<Index> solveOrder(const lslam::IncrementalCholesky<3>& chol) {

@@ -89,6 +89,33 @@ __attribute__((target("avx"))) void addBlockProductsAvx(const Mat3* blocks, cons
   }
 }
 
+__attribute__((target("avx"))) void addBlockProductsOfColumnsAvx(
+    const Mat3* const* columns, const Mat3* s, Index num_columns, const Index* rows, Index first,
+    Index size, const Index* target_rows, Mat3* target) {
+  Index p = 1;
+  for (Index b = first; b < size; ++b) {
+    while (target_rows[p] < rows[b]) ++p;
+    LSLAM_DEBUG_ASSERT(target_rows[p] == rows[b]);
+    double* t_data = target[p].data();
+    __m256d t[3] = {loadColumn(t_data, 0), loadColumn(t_data, 1), loadColumn(t_data, 2)};
+    for (Index m = 0; m < num_columns; ++m) {
+      const double* b_data = columns[m][b].data();
+      const __m256d b0 = loadColumn(b_data, 0);
+      const __m256d b1 = loadColumn(b_data, 1);
+      const __m256d b2 = loadColumn(b_data, 2);
+      const Mat3& sm = s[m];
+      for (int c = 0; c < 3; ++c) {
+        const __m256d sum =
+            _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(b0, _mm256_broadcast_sd(&sm(0, c))),
+                                        _mm256_mul_pd(b1, _mm256_broadcast_sd(&sm(1, c)))),
+                          _mm256_mul_pd(b2, _mm256_broadcast_sd(&sm(2, c))));
+        t[c] = _mm256_add_pd(t[c], sum);
+      }
+    }
+    storeColumns(t_data, t[0], t[1], t[2]);
+  }
+}
+
 #else
 
 // Never called (cpuHasAvx() is false here), but the calls behind it must link.
@@ -97,6 +124,10 @@ void applyRowReflectionsAvx(const Mat3&, const Vec3&, Mat3*, const Index*, Index
 }
 void addBlockProductsAvx(const Mat3*, const Index*, Index, Index, const Mat3&, const Index*,
                          Mat3*) {
+  LSLAM_ASSERT(false);
+}
+void addBlockProductsOfColumnsAvx(const Mat3* const*, const Mat3*, Index, const Index*, Index,
+                                  Index, const Index*, Mat3*) {
   LSLAM_ASSERT(false);
 }
 

@@ -167,6 +167,15 @@ Status IncrementalCholesky<D>::factorize(const InformationSource<D>& source,
       startColumn(a_.affected[i], source, variable_at, position_of);
     }
   }
+  if constexpr (D == 3) {
+    if (full_ && detail::cpuHasAvx()) {
+      const Status s = factorizeBySupernodes();
+      if (s != Status::Ok) return s;
+      stats_.columns_recomputed = affected_count_;
+      stats_.blocks_written = pool_end_ - pool_mark_;
+      return Status::Ok;
+    }
+  }
   for (Index i = 0; i < affected_count_; ++i) {
     const Index k = a_.affected[i];
     const Status s = finishColumn(k);

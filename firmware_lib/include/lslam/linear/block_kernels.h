@@ -71,5 +71,13 @@ void applyRowReflectionsAvx(const Mat3& u, const Vec3& beta, Mat3* blocks, const
 void addBlockProductsAvx(const Mat3* blocks, const Index* rows, Index first, Index size,
                          const Mat3& s, const Index* target_rows, Mat3* target);
 
+// addBlockProductsAvx for several source columns at once: for b in [first, size), target[p] +=
+// columns[0][b] * s[0], then += columns[1][b] * s[1], ... (each product summed as in
+// addBlockProduct), p the place of rows[b] among target_rows. The target block is loaded and
+// stored once for all of them.
+void addBlockProductsOfColumnsAvx(const Mat3* const* columns, const Mat3* s, Index num_columns,
+                                  const Index* rows, Index first, Index size,
+                                  const Index* target_rows, Mat3* target);
+
 }  // namespace detail
 }  // namespace lslam

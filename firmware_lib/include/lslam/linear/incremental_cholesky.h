@@ -188,6 +188,10 @@ class IncrementalCholesky {
                           const Index* position_of);
   [[nodiscard]] Status finishColumn(Index k);
   void scatter(const Index* rows, const Block* blocks, Index size, const Vector& d, double sign);
+  [[nodiscard]] Status factorizeBySupernodes();
+  Index supernodeEnd(Index i) const;
+  void scatterWithinSupernode(Index column, Index last);
+  void scatterFromSupernode(Index first, Index last);
   std::uint32_t nextMark();
   void linkChild(Index parent, Index child);
   void unlinkChild(Index parent, Index child);
