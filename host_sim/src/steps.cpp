@@ -7,20 +7,12 @@
 #include <unordered_map>
 #include <unordered_set>
 
+#include "lslam/geometry/angle.h"
 #include "lslam/geometry/se2.h"
 
 namespace lslam::sim {
 
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
-
-// theta wrapped to (-pi, pi] (std::remainder gives [-pi, pi]; -pi moves to +pi).
-double wrapToPi(double theta) {
-  double r = std::remainder(theta, 2.0 * kPi);
-  if (r <= -kPi) r += 2.0 * kPi;
-  return r;
-}
 
 std::string edgeText(const Edge2D& e) {
   return std::to_string(e.from) + " -> " + std::to_string(e.to);
@@ -154,7 +146,7 @@ Pose2D composeMeasurement(const Pose2D& xi, const Pose2D& z) {
   Pose2D out;
   out.x = xi.x + c * z.x - s * z.y;
   out.y = xi.y + s * z.x + c * z.y;
-  out.theta = wrapToPi(xi.theta + z.theta);
+  out.theta = lslam::wrapAngle(xi.theta + z.theta);
   return out;
 }
 
@@ -166,7 +158,7 @@ Pose2D relativePose(const Pose2D& xi, const Pose2D& xj) {
   Pose2D out;
   out.x = c * dx + s * dy;
   out.y = -s * dx + c * dy;
-  out.theta = wrapToPi(xj.theta - xi.theta);
+  out.theta = lslam::wrapAngle(xj.theta - xi.theta);
   return out;
 }
 

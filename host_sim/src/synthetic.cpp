@@ -10,6 +10,7 @@
 #include <utility>
 
 #include "host_sim/steps.h"
+#include "lslam/geometry/angle.h"
 
 namespace lslam::sim {
 
@@ -24,8 +25,8 @@ class Random {
 
   // Uniform in [0, 1) with 53 random bits (exact arithmetic).
   double uniform() {
-    const std::uint64_t a = engine_() >> 5;  // 27 bits
-    const std::uint64_t b = engine_() >> 6;  // 26 bits
+    const std::uint64_t a = engine_() >> 5;                                  // 27 bits
+    const std::uint64_t b = engine_() >> 6;                                  // 26 bits
     return static_cast<double>((a << 26) | b) * (1.0 / 9007199254740992.0);  // / 2^53
   }
 
@@ -110,12 +111,6 @@ Pose2D exactRelative(const GridPose& a, const GridPose& b) {
                 headingAngle(b.heading - a.heading)};
 }
 
-double wrapToPi(double theta) {
-  double r = std::remainder(theta, 2.0 * kPi);
-  if (r <= -kPi) r += 2.0 * kPi;
-  return r;
-}
-
 void validate(const SyntheticOptions& o) {
   auto bad = [](const std::string& what) {
     throw std::invalid_argument("generateManhattanWorld: " + what);
@@ -147,8 +142,7 @@ SyntheticWorld generateManhattanWorld(const SyntheticOptions& options) {
   for (std::size_t i = 1; i < n; ++i) {
     const GridPose& p = grid[i - 1];
     // Choices: 0 straight, 1 left (+90 deg), 2 right (-90 deg).
-    std::array<double, 3> weight = {1.0 - options.turn_probability,
-                                    0.5 * options.turn_probability,
+    std::array<double, 3> weight = {1.0 - options.turn_probability, 0.5 * options.turn_probability,
                                     0.5 * options.turn_probability};
     std::array<bool, 3> allowed{};
     for (int c = 0; c < 3; ++c) {
@@ -202,7 +196,7 @@ SyntheticWorld generateManhattanWorld(const SyntheticOptions& options) {
     const Pose2D exact = exactRelative(grid[from], grid[to]);
     e.measurement.x = exact.x + options.sigma_x * rng.normal();
     e.measurement.y = exact.y + options.sigma_y * rng.normal();
-    e.measurement.theta = wrapToPi(exact.theta + options.sigma_theta * rng.normal());
+    e.measurement.theta = lslam::wrapAngle(exact.theta + options.sigma_theta * rng.normal());
     e.information = information;
     return e;
   };
