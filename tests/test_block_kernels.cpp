@@ -1,6 +1,7 @@
 // The block kernels (lslam/linear/block_kernels.h): the portable forms against dense Eigen
 // references (the block product, and the reflections as explicit 2D x 2D matrices), and the AVX
-// forms bit for bit against the portable forms, on many random cases from a fixed seed.
+// forms (single and several source columns) bit for bit against the portable forms, on many
+// random cases from a fixed seed.
 #include <doctest/doctest.h>
 
 #include <Eigen/Dense>
@@ -110,6 +111,31 @@ TEST_CASE("the AVX block kernels compute the portable forms' bits") {
     lslam::detail::addBlockProductsAvx(blocks.data(), rows.data(), first, size, s,
                                        target_rows.data(), target.data());
     for (std::size_t p = 0; p < target.size(); ++p) CHECK(sameBits(target[p], expected[p]));
+
+    // Several source columns at once (a supernode): each target block takes their products in
+    // column order, as the same number of single-column passes would give it.
+    const Index width = 1 + n % 8;
+    std::vector<std::vector<Eigen::Matrix3d>> columns(width,
+                                                      std::vector<Eigen::Matrix3d>(rows.size()));
+    std::vector<Eigen::Matrix3d> s_of(width);
+    std::vector<const Eigen::Matrix3d*> column_of(width);
+    for (Index m = 0; m < width; ++m) {
+      for (auto& b : columns[m]) b = randomBlock<3>(rng);
+      s_of[m] = randomBlock<3>(rng);
+      column_of[m] = columns[m].data();
+    }
+    std::vector<Eigen::Matrix3d> multi_expected = target;
+    for (Index m = 0; m < width; ++m) {
+      for (Index b = first; b < size; ++b) {
+        const Index p =
+            static_cast<Index>(std::lower_bound(target_rows.begin(), target_rows.end(), rows[b]) -
+                               target_rows.begin());
+        lslam::detail::addBlockProduct<3>(multi_expected[p], columns[m][b], s_of[m]);
+      }
+    }
+    lslam::detail::addBlockProductsOfColumnsAvx(column_of.data(), s_of.data(), width, rows.data(),
+                                                first, size, target_rows.data(), target.data());
+    for (std::size_t p = 0; p < target.size(); ++p) CHECK(sameBits(target[p], multi_expected[p]));
 
     // The reflections on the column's row blocks, with W kept per row as in the row update.
     const Eigen::Matrix3d u = randomBlock<3>(rng);
