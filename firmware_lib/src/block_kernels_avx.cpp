@@ -13,7 +13,7 @@ namespace {
 
 // A column of a column-major 3 x 3 block in lanes 0-2 (lane 3: whatever follows it in memory,
 // or zero for the last column, which must not be read past the block).
-__attribute__((target("avx"))) inline __m256d loadColumn(const double* block, int c) {
+__attribute__((target("avx2,fma"))) inline __m256d loadColumn(const double* block, int c) {
   if (c < 2) return _mm256_loadu_pd(block + 3 * c);
   return _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(block + 6)),
                               _mm_load_sd(block + 8), 1);
@@ -21,53 +21,64 @@ __attribute__((target("avx"))) inline __m256d loadColumn(const double* block, in
 
 // Stores the three columns back. Columns 0 and 1 are stored whole, in order, so that lane 3 of
 // each (the next column's row 0) is overwritten by the next store; column 2 stops at the block.
-__attribute__((target("avx"))) inline void storeColumns(double* block, __m256d c0, __m256d c1,
-                                                        __m256d c2) {
+__attribute__((target("avx2,fma"))) inline void storeColumns(double* block, __m256d c0, __m256d c1,
+                                                             __m256d c2) {
   _mm256_storeu_pd(block, c0);
   _mm256_storeu_pd(block + 3, c1);
   _mm_storeu_pd(block + 6, _mm256_castpd256_pd128(c2));
   _mm_store_sd(block + 8, _mm256_extractf128_pd(c2, 1));
 }
 
+// Column c of t + b s, each product fused in order k = 0, 1, 2 (as addBlockProduct).
+__attribute__((target("avx2,fma"))) inline __m256d addProductColumn(__m256d b0, __m256d b1,
+                                                                    __m256d b2, const Mat3& s,
+                                                                    int c, __m256d t) {
+  t = _mm256_fmadd_pd(b0, _mm256_broadcast_sd(&s(0, c)), t);
+  t = _mm256_fmadd_pd(b1, _mm256_broadcast_sd(&s(1, c)), t);
+  return _mm256_fmadd_pd(b2, _mm256_broadcast_sd(&s(2, c)), t);
+}
+
 }  // namespace
 
-bool cpuHasAvx() {
+bool cpuHasAvxFma() {
   static const bool has = [] {
     __builtin_cpu_init();
-    return __builtin_cpu_supports("avx") != 0;
+    return __builtin_cpu_supports("avx2") != 0 && __builtin_cpu_supports("fma") != 0;
   }();
   return has;
 }
 
-__attribute__((target("avx"))) void applyRowReflectionsAvx(const Mat3& u, const Vec3& beta,
-                                                           Mat3* blocks, const Index* rows,
-                                                           Index size, Mat3* w) {
+__attribute__((target("avx2,fma"))) void applyRowReflectionsAvx(const Mat3& u, const Vec3& beta,
+                                                                Mat3* blocks, const Index* rows,
+                                                                Index size, Mat3* w) {
   for (Index b = 1; b < size; ++b) {
     double* l_data = blocks[b].data();
     double* w_data = w[rows[b]].data();
     __m256d l[3] = {loadColumn(l_data, 0), loadColumn(l_data, 1), loadColumn(l_data, 2)};
     __m256d x[3] = {loadColumn(w_data, 0), loadColumn(w_data, 1), loadColumn(w_data, 2)};
     for (int j = 0; j < 3; ++j) {
-      // Per row: t = (w0 u0 + w1 u1) + w2 u2 and s = beta (l_j + t), as applyRowReflections.
+      // Per row, as applyRowReflections: t = l_j + w0 u0 + w1 u1 + w2 u2 (fused, in that
+      // order), s = beta t, l_j -= s, w_c -= s u_c (fused).
       const __m256d u0 = _mm256_broadcast_sd(&u(0, j));
       const __m256d u1 = _mm256_broadcast_sd(&u(1, j));
       const __m256d u2 = _mm256_broadcast_sd(&u(2, j));
-      const __m256d t = _mm256_add_pd(
-          _mm256_add_pd(_mm256_mul_pd(x[0], u0), _mm256_mul_pd(x[1], u1)), _mm256_mul_pd(x[2], u2));
-      const __m256d s = _mm256_mul_pd(_mm256_broadcast_sd(&beta(j)), _mm256_add_pd(l[j], t));
+      const __m256d t =
+          _mm256_fmadd_pd(x[2], u2, _mm256_fmadd_pd(x[1], u1, _mm256_fmadd_pd(x[0], u0, l[j])));
+      const __m256d s = _mm256_mul_pd(_mm256_broadcast_sd(&beta(j)), t);
       l[j] = _mm256_sub_pd(l[j], s);
-      x[0] = _mm256_sub_pd(x[0], _mm256_mul_pd(s, u0));
-      x[1] = _mm256_sub_pd(x[1], _mm256_mul_pd(s, u1));
-      x[2] = _mm256_sub_pd(x[2], _mm256_mul_pd(s, u2));
+      x[0] = _mm256_fnmadd_pd(s, u0, x[0]);
+      x[1] = _mm256_fnmadd_pd(s, u1, x[1]);
+      x[2] = _mm256_fnmadd_pd(s, u2, x[2]);
     }
     storeColumns(l_data, l[0], l[1], l[2]);
     storeColumns(w_data, x[0], x[1], x[2]);
   }
 }
 
-__attribute__((target("avx"))) void addBlockProductsAvx(const Mat3* blocks, const Index* rows,
-                                                        Index first, Index size, const Mat3& s,
-                                                        const Index* target_rows, Mat3* target) {
+__attribute__((target("avx2,fma"))) void addBlockProductsAvx(const Mat3* blocks, const Index* rows,
+                                                             Index first, Index size, const Mat3& s,
+                                                             const Index* target_rows,
+                                                             Mat3* target) {
   Index p = 1;
   for (Index b = first; b < size; ++b) {
     while (target_rows[p] < rows[b]) ++p;
@@ -78,18 +89,12 @@ __attribute__((target("avx"))) void addBlockProductsAvx(const Mat3* blocks, cons
     const __m256d b1 = loadColumn(b_data, 1);
     const __m256d b2 = loadColumn(b_data, 2);
     __m256d t[3];
-    for (int c = 0; c < 3; ++c) {
-      const __m256d sum =
-          _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(b0, _mm256_broadcast_sd(&s(0, c))),
-                                      _mm256_mul_pd(b1, _mm256_broadcast_sd(&s(1, c)))),
-                        _mm256_mul_pd(b2, _mm256_broadcast_sd(&s(2, c))));
-      t[c] = _mm256_add_pd(loadColumn(t_data, c), sum);
-    }
+    for (int c = 0; c < 3; ++c) t[c] = addProductColumn(b0, b1, b2, s, c, loadColumn(t_data, c));
     storeColumns(t_data, t[0], t[1], t[2]);
   }
 }
 
-__attribute__((target("avx"))) void addBlockProductsOfColumnsAvx(
+__attribute__((target("avx2,fma"))) void addBlockProductsOfColumnsAvx(
     const Mat3* const* columns, const Mat3* s, Index num_columns, const Index* rows, Index first,
     Index size, const Index* target_rows, Mat3* target) {
   Index p = 1;
@@ -103,14 +108,7 @@ __attribute__((target("avx"))) void addBlockProductsOfColumnsAvx(
       const __m256d b0 = loadColumn(b_data, 0);
       const __m256d b1 = loadColumn(b_data, 1);
       const __m256d b2 = loadColumn(b_data, 2);
-      const Mat3& sm = s[m];
-      for (int c = 0; c < 3; ++c) {
-        const __m256d sum =
-            _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(b0, _mm256_broadcast_sd(&sm(0, c))),
-                                        _mm256_mul_pd(b1, _mm256_broadcast_sd(&sm(1, c)))),
-                          _mm256_mul_pd(b2, _mm256_broadcast_sd(&sm(2, c))));
-        t[c] = _mm256_add_pd(t[c], sum);
-      }
+      for (int c = 0; c < 3; ++c) t[c] = addProductColumn(b0, b1, b2, s[m], c, t[c]);
     }
     storeColumns(t_data, t[0], t[1], t[2]);
   }
@@ -118,7 +116,7 @@ __attribute__((target("avx"))) void addBlockProductsOfColumnsAvx(
 
 #else
 
-// Never called (cpuHasAvx() is false here), but the calls behind it must link.
+// Never called (cpuHasAvxFma() is false here), but the calls behind it must link.
 void applyRowReflectionsAvx(const Mat3&, const Vec3&, Mat3*, const Index*, Index, Mat3*) {
   LSLAM_ASSERT(false);
 }

@@ -168,7 +168,7 @@ Status IncrementalCholesky<D>::factorize(const InformationSource<D>& source,
     }
   }
   if constexpr (D == 3) {
-    if (full_ && detail::cpuHasAvx()) {
+    if (full_ && detail::cpuHasAvxFma()) {
       const Status s = factorizeBySupernodes();
       if (s != Status::Ok) return s;
       stats_.columns_recomputed = affected_count_;
@@ -346,7 +346,7 @@ void IncrementalCholesky<D>::scatter(const Index* rows, const Block* blocks, Ind
     target[0].noalias() += blocks[a] * l_sk_t;
     // rows[a+1..] is a subset of the target's rows, both ascending: merge.
     if constexpr (D == 3) {
-      if (detail::cpuHasAvx()) {
+      if (detail::cpuHasAvxFma()) {
         detail::addBlockProductsAvx(blocks, rows, a + 1, size, l_sk_t, target_rows, target);
         stats_.block_products += size - a;
         continue;

@@ -172,7 +172,7 @@ Status IncrementalCholesky<D>::rowUpdateColumn(Index k, const Index* pattern, In
   // branching loop the whole row update ran ~20 % slower (measured on city10000's dense top).
   bool reflected = false;
   if constexpr (D == 3) {
-    reflected = detail::cpuHasAvx();
+    reflected = detail::cpuHasAvxFma();
     if (reflected) detail::applyRowReflectionsAvx(h.u, h.beta, blocks, rows, size, a_.update_rows);
   }
   for (Index b = 1; !reflected && b < size; ++b) h.apply(blocks[b], a_.update_rows[rows[b]]);
