@@ -165,27 +165,48 @@ struct Harness {
   // touched.
   std::vector<std::pair<Index, Index>> growOneStep(std::mt19937& rng) {
     std::uniform_int_distribution<int> coin(0, 3);
-    const Index v = addVariable();
-    std::vector<std::pair<Index, Index>> touched;
-    if (v == 0) {
-      source.addPrior(0);
-      touched.push_back({0, 0});
-      return touched;
-    }
-    source.addFactor(v - 1, v, rng);  // odometry
-    touched.push_back({v - 1, v});
-    const int loops = coin(rng) == 0 ? 1 + coin(rng) : 0;
-    for (int l = 0; l < loops; ++l) {
-      const Index old = std::uniform_int_distribution<Index>(0, v - 1)(rng);
-      source.addFactor(old, v, rng);
-      touched.push_back({old, v});
-    }
+    std::vector<std::pair<Index, Index>> touched = addPose(rng);
+    const Index v = source.size() - 1;
+    if (v == 0) return touched;
+    addLoopClosures(coin(rng) == 0 ? 1 + coin(rng) : 0, rng, touched);
     if (coin(rng) == 0 && v > 2) {
       const Index a = std::uniform_int_distribution<Index>(1, v - 1)(rng);
       source.addFactor(a - 1, a, rng);
       touched.push_back({a - 1, a});
     }
     return touched;
+  }
+
+  // Appends a pose: the first with a prior, the others with an odometry factor to the one before.
+  // Returns the pairs touched.
+  std::vector<std::pair<Index, Index>> addPose(std::mt19937& rng) {
+    const Index v = addVariable();
+    if (v == 0) {
+      source.addPrior(0);
+      return {{0, 0}};
+    }
+    source.addFactor(v - 1, v, rng);
+    return {{v - 1, v}};
+  }
+
+  // Adds `count` factors from the newest variable to random older ones, appended to `touched`.
+  void addLoopClosures(int count, std::mt19937& rng,
+                       std::vector<std::pair<Index, Index>>& touched) {
+    const Index v = source.size() - 1;
+    for (int l = 0; l < count; ++l) {
+      const Index old = std::uniform_int_distribution<Index>(0, v - 1)(rng);
+      source.addFactor(old, v, rng);
+      touched.push_back({old, v});
+    }
+  }
+
+  // update(), and when the pool is full (garbage of grown columns), compact() and once more.
+  lslam::Status updateCompactingIfFull(Index new_vars,
+                                       const std::vector<std::pair<Index, Index>>& touched) {
+    const lslam::Status s = update(new_vars, touched);
+    if (s != lslam::Status::CapacityExhausted) return s;
+    chol.compact();
+    return update(new_vars, touched);
   }
 
   // Appends a variable in the last position; returns it.
@@ -250,13 +271,7 @@ TEST_CASE("full refactorization under a new ordering equals dense LLT of the per
     std::mt19937 rng(seed);
     auto h = std::make_unique<Harness>();
     for (Index v = 0; v < 50; ++v) {
-      h->addVariable();
-      if (v == 0) {
-        h->source.addPrior(0);
-      } else {
-        h->source.addFactor(v - 1, v, rng);
-      }
-      REQUIRE(h->update(1, {{v == 0 ? 0 : v - 1, v}}) == lslam::Status::Ok);
+      REQUIRE(h->update(1, h->addPose(rng)) == lslam::Status::Ok);
       if (v % 7 == 0 && v > 0) {  // a loop closure as its own update
         const Index old = std::uniform_int_distribution<Index>(0, v - 1)(rng);
         h->source.addFactor(old, v, rng);
@@ -303,25 +318,9 @@ TEST_CASE("a full refactorization through long chains of nested columns equals d
     std::mt19937 rng(seed);
     auto h = std::make_unique<Harness>();
     for (Index v = 0; v < 60; ++v) {
-      h->addVariable();
-      if (v == 0) {
-        h->source.addPrior(0);
-        REQUIRE(h->update(1, {{0, 0}}) == lslam::Status::Ok);
-        continue;
-      }
-      std::vector<std::pair<Index, Index>> touched{{v - 1, v}};
-      h->source.addFactor(v - 1, v, rng);
-      for (int loop = 0; loop < 3; ++loop) {  // many loop closures: a dense trailing part
-        const Index old = std::uniform_int_distribution<Index>(0, v - 1)(rng);
-        h->source.addFactor(old, v, rng);
-        touched.emplace_back(old, v);
-      }
-      lslam::Status s = h->update(1, touched);
-      if (s == lslam::Status::CapacityExhausted) {  // garbage of grown columns: squeeze, retry
-        h->chol.compact();
-        s = h->update(1, touched);
-      }
-      REQUIRE(s == lslam::Status::Ok);
+      std::vector<std::pair<Index, Index>> touched = h->addPose(rng);
+      if (v > 0) h->addLoopClosures(3, rng, touched);  // many: a dense trailing part
+      REQUIRE(h->updateCompactingIfFull(1, touched) == lslam::Status::Ok);
     }
     h->chol.compact();
     h->refactorFully();
@@ -356,13 +355,7 @@ std::vector<Index> solveOrder(const lslam::IncrementalCholesky<3>& chol) {
 Index growAndRefactorShuffled(Harness& h, unsigned seed) {
   std::mt19937 rng(seed);
   for (Index step = 0; step < 40; ++step) {
-    const std::vector<std::pair<Index, Index>> touched = h.growOneStep(rng);
-    lslam::Status s = h.update(1, touched);
-    if (s == lslam::Status::CapacityExhausted) {  // a tight pool: squeeze out garbage, retry
-      h.chol.compact();
-      s = h.update(1, touched);
-    }
-    REQUIRE(s == lslam::Status::Ok);
+    REQUIRE(h.updateCompactingIfFull(1, h.growOneStep(rng)) == lslam::Status::Ok);
   }
   h.chol.compact();
   std::shuffle(h.variable_at.begin(), h.variable_at.end(), rng);

@@ -167,16 +167,13 @@ Status IncrementalCholesky<D>::factorize(const InformationSource<D>& source,
       startColumn(a_.affected[i], source, variable_at, position_of);
     }
   }
-  if constexpr (D == 3) {
-    if (full_ && detail::cpuHasAvxFma()) {
-      const Status s = factorizeBySupernodes();
-      if (s != Status::Ok) return s;
-      stats_.columns_recomputed = affected_count_;
-      stats_.blocks_written = pool_end_ - pool_mark_;
-      return Status::Ok;
-    }
+  bool by_supernodes = false;
+  if constexpr (D == 3) by_supernodes = full_ && detail::cpuHasAvxFma();
+  if (by_supernodes) {
+    const Status s = factorizeBySupernodes();
+    if (s != Status::Ok) return s;
   }
-  for (Index i = 0; i < affected_count_; ++i) {
+  for (Index i = 0; !by_supernodes && i < affected_count_; ++i) {
     const Index k = a_.affected[i];
     const Status s = finishColumn(k);
     if (s != Status::Ok) return s;
@@ -336,6 +333,8 @@ Status IncrementalCholesky<D>::finishColumn(Index k) {
 template <int D>
 void IncrementalCholesky<D>::scatter(const Index* rows, const Block* blocks, Index size,
                                      const Vector& d, double sign) {
+  bool host_kernels = false;  // asked once per column: a call on a hot loop otherwise
+  if constexpr (D == 3) host_kernels = detail::cpuHasAvxFma();
   for (Index a = 1; a < size; ++a) {
     const Index s = rows[a];
     const Index* target_rows = a_.rows + a_.staged_start[s];
@@ -346,7 +345,7 @@ void IncrementalCholesky<D>::scatter(const Index* rows, const Block* blocks, Ind
     target[0].noalias() += blocks[a] * l_sk_t;
     // rows[a+1..] is a subset of the target's rows, both ascending: merge.
     if constexpr (D == 3) {
-      if (detail::cpuHasAvxFma()) {
+      if (host_kernels) {
         detail::addBlockProductsAvx(blocks, rows, a + 1, size, l_sk_t, target_rows, target);
         stats_.block_products += size - a;
         continue;
