@@ -4,6 +4,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <cstring>
 #include <functional>
 #include <memory>
 #include <numeric>
@@ -365,7 +366,19 @@ Index growAndRefactorShuffled(Harness& h, unsigned seed) {
   return pool_before;
 }
 
-TEST_CASE("a full refactorization leaves the factor in back-substitution order when it has room") {
+// The full solve of L^T x = d into a fresh vector, by variable.
+std::vector<Eigen::Vector3d> fullSolve(lslam::IncrementalCholesky<3>& chol,
+                                       const std::vector<Index>& variable_at) {
+  std::vector<Eigen::Vector3d> delta(kMaxColumns, Eigen::Vector3d::Zero());
+  std::vector<Index> visited(kMaxColumns);
+  CHECK(chol.backSubstitute(delta.data(), variable_at.data(), 0.0, true, visited.data()) ==
+        chol.columns());
+  return delta;
+}
+
+TEST_CASE(
+    "after a full refactorization the solve reads the columns in order, and the next update lays "
+    "them out in back-substitution order when it has room") {
   for (unsigned seed = 300; seed < 310; ++seed) {
     CAPTURE(seed);
     // A dry run learns the sizes, then the same sequence runs with ample room and with room for
@@ -379,6 +392,21 @@ TEST_CASE("a full refactorization leaves the factor in back-substitution order w
       auto h = std::make_unique<Harness>(pool);
       REQUIRE(growAndRefactorShuffled(*h, seed) == pool_before);
       checkAgainstDense(h->chol, h->source, h->variable_at);
+      // Before the layout: the solve in column order gives the dense solution.
+      const std::vector<Eigen::Vector3d> in_column_order = fullSolve(h->chol, h->variable_at);
+      const Eigen::VectorXd x = h->source.lambda.llt().solve(h->source.eta);
+      for (Index v = 0; v < h->source.size(); ++v) {
+        CHECK((in_column_order[v] - x.segment<3>(3 * v)).cwiseAbs().maxCoeff() <=
+              1e-8 * (1.0 + x.cwiseAbs().maxCoeff()));
+      }
+      // The layout is the next update's first act.
+      CHECK(h->chol.poolEnd() == pool_before + live);
+      h->chol.beginUpdate(0, false);
+      h->chol.rollback();
+      // Laid out, the depth-first solve computes every column from the same values: same bits.
+      const std::vector<Eigen::Vector3d> depth_first = fullSolve(h->chol, h->variable_at);
+      CHECK(std::memcmp(depth_first.data(), in_column_order.data(),
+                        sizeof(Eigen::Vector3d) * static_cast<std::size_t>(h->source.size())) == 0);
       const std::vector<Index> order = solveOrder(h->chol);
       REQUIRE(static_cast<Index>(order.size()) == h->chol.columns());
       bool consecutive = true;

@@ -128,25 +128,63 @@ TEST_CASE("with reordered updates of the affected top, too") {
   checkTracksBatch(UpdatePaths{true, true, true});
 }
 
+// Feeds syntheticWorld(poses, seed) online to a solver with `options` and calls
+// check(result, prepared) after every update, `prepared` telling whether the update before
+// prepared an ordering (which this one must then apply).
+template <class Check>
+void runOnline(Index poses, std::uint32_t seed, const SolverOptions& options, Check check) {
+  const Dataset2D d = syntheticWorld(poses, seed);
+  const std::vector<Step> steps = buildSteps(d, StepOrder::Online);
+  auto solver = std::make_unique<SmallSolver>(options);
+  Estimate2D initial;
+  bool prepared = false;
+  for (std::size_t s = 0; s < steps.size(); ++s) {
+    CAPTURE(s);
+    lslam::UpdateResult r;
+    REQUIRE(feedStep(*solver, d, steps[s], initial, &r) == Status::Ok);
+    CHECK_FALSE((r.ordering_prepared && r.reordered));
+    if (prepared) CHECK(r.reordered);
+    check(r, prepared);
+    prepared = r.ordering_prepared;
+  }
+}
+
 TEST_CASE(
-    "the first ordering comes with the update that brings the graph to reorder_min_variables") {
-  for (std::uint32_t seed = 50; seed < 54; ++seed) {
-    CAPTURE(seed);
-    const Dataset2D d = syntheticWorld(60, seed);
-    const std::vector<Step> steps = buildSteps(d, StepOrder::Online);
-    SolverOptions options;
-    options.reorder_min_variables = 20;
-    auto solver = std::make_unique<SmallSolver>(options);
-    Estimate2D initial;
-    Index variables = 0;
-    Index first_ordering_at = 0;
-    for (std::size_t s = 0; s < steps.size() && first_ordering_at == 0; ++s) {
-      lslam::UpdateResult r;
-      REQUIRE(feedStep(*solver, d, steps[s], initial, &r) == Status::Ok);
-      variables += r.variables_added;
-      if (r.reordered) first_ordering_at = variables;
+    "the first ordering is prepared by the update that brings the graph to reorder_min_variables "
+    "and applied by the next (or by that update itself, in one update)") {
+  for (const bool ahead : {true, false}) {
+    CAPTURE(ahead);
+    for (std::uint32_t seed = 50; seed < 54; ++seed) {
+      CAPTURE(seed);
+      SolverOptions options;
+      options.reorder_min_variables = 20;
+      options.prepare_ordering_ahead = ahead;
+      Index variables = 0;
+      Index prepared_at = 0;
+      Index ordered_at = 0;
+      Index step = 0;
+      Index prepared_step = 0;
+      Index ordered_step = 0;
+      runOnline(60, seed, options, [&](const lslam::UpdateResult& r, bool) {
+        variables += r.variables_added;
+        if (r.ordering_prepared && prepared_at == 0) {
+          prepared_at = variables;
+          prepared_step = step;
+        }
+        if (r.reordered && ordered_at == 0) {
+          ordered_at = variables;
+          ordered_step = step;
+        }
+        ++step;
+      });
+      if (ahead) {
+        CHECK(prepared_at == options.reorder_min_variables);
+        CHECK(ordered_step == prepared_step + 1);
+      } else {
+        CHECK(prepared_at == 0);
+        CHECK(ordered_at == options.reorder_min_variables);
+      }
     }
-    CHECK(first_ordering_at == options.reorder_min_variables);
   }
 }
 
@@ -154,30 +192,26 @@ TEST_CASE("the rent-or-buy rule reorders exactly when the growth work passes its
   // The rule re-derived from what every update reports: after an ordering, the budget is
   // ratio x (its factorization's block products) x (its factor blocks); every later update adds
   // its block products x the factor's growth since the ordering; the first update that starts
-  // with the sum past the budget reorders. The other triggers are off.
+  // with the sum past the budget prepares an ordering, and the next update applies it. The other
+  // triggers are off.
   for (const double ratio : {0.0, 0.25, 1.0}) {
     CAPTURE(ratio);
     for (std::uint32_t seed = 40; seed < 44; ++seed) {
       CAPTURE(seed);
-      const Dataset2D d = syntheticWorld(300, seed);
-      const std::vector<Step> steps = buildSteps(d, StepOrder::Online);
       SolverOptions options;
       options.reorder_min_variables = 20;
       options.reorder_growth = 1e9;
       options.reorder_path_columns = 0;
       options.reorder_relinearized_share = 2.0;  // never a full refactorization for relinearizing
+      options.relinearize_full_cost_ratio = 0.0;
       options.reorder_excess_ratio = ratio;
-      auto solver = std::make_unique<SmallSolver>(options);
-      Estimate2D initial;
       std::int64_t budget = 0;
       std::int64_t excess = 0;
       Index base = 0;
       int orderings = 0;
-      for (std::size_t s = 0; s < steps.size(); ++s) {
-        CAPTURE(s);
-        lslam::UpdateResult r;
-        REQUIRE(feedStep(*solver, d, steps[s], initial, &r) == Status::Ok);
-        if (base > 0) CHECK(r.reordered == (budget > 0 && excess > budget));
+      runOnline(300, seed, options, [&](const lslam::UpdateResult& r, bool prepared) {
+        CHECK(r.reordered == prepared);
+        if (base > 0) CHECK(r.ordering_prepared == (!prepared && budget > 0 && excess > budget));
         if (r.reordered) {
           ++orderings;
           base = r.factor_blocks;
@@ -187,12 +221,45 @@ TEST_CASE("the rent-or-buy rule reorders exactly when the growth work passes its
         } else if (base > 0 && r.factor_blocks > base) {
           excess += r.block_products * (r.factor_blocks - base);
         }
-      }
+      });
       if (ratio == 0.0) {
         CHECK(orderings == 1);  // only the first, at reorder_min_variables
       } else {
         CHECK(orderings > 1);
       }
+    }
+  }
+}
+
+TEST_CASE(
+    "a relinearization dearer in place than a full refactorization refactorizes fully, in a "
+    "fresh ordering") {
+  // Ratio 1e-9: every relinearization is dearer in place, so none runs in place; off (0): some
+  // do. The share rule is off; urgent relinearization at every update makes them frequent.
+  for (const double ratio : {1e-9, 0.0}) {
+    CAPTURE(ratio);
+    int in_place = 0;
+    int fully = 0;
+    int postponed = 0;
+    for (std::uint32_t seed = 60; seed < 63; ++seed) {
+      CAPTURE(seed);
+      SolverOptions options;
+      options.reorder_min_variables = 20;
+      options.reorder_relinearized_share = 2.0;
+      options.relinearize_urgent_threshold = 0.0;
+      options.relinearize_full_cost_ratio = ratio;
+      runOnline(200, seed, options, [&](const lslam::UpdateResult& r, bool prepared) {
+        CHECK(r.reordered == prepared);
+        if (r.variables_relinearized > 0) (r.refactored_fully ? fully : in_place) += 1;
+        if (r.ordering_prepared) ++postponed;
+      });
+    }
+    if (ratio > 0.0) {
+      CHECK(in_place == 0);
+      CHECK(fully > 0);
+      CHECK(postponed > 1);  // more than the first ordering
+    } else {
+      CHECK(in_place > 0);
     }
   }
 }

@@ -7,6 +7,7 @@
 #include "lower_triangular.h"
 #include "lslam/linear/block_kernels.h"
 #include "rows_after_collector.h"
+#include "subtract_transposed_products.h"
 
 namespace lslam {
 namespace {
@@ -33,29 +34,6 @@ bool invertedCholesky(const Eigen::Matrix<double, D, D>& a, Eigen::Matrix<double
   return true;
 }
 
-// x -= sum_{i >= 1} blocks[i]^T y(rows[i]), y(r) = delta[variable_at[r]]: the back-substitution's
-// inner loop. On a SIMD host the products are summed elementwise and reduced to a vector once per
-// column; a transposed block times a vector per block reduces across lanes every time (~10 % of a
-// full solve on city10000). On a scalar FPU (the Cortex-M) the direct form is the fewer
-// instructions (the elementwise one costs ~7 % more per odometry step there), so it stays.
-template <int D>
-void subtractTransposedProducts(Eigen::Matrix<double, D, 1>& x,
-                                const Eigen::Matrix<double, D, D>* blocks, const Index* rows,
-                                Index size, const Eigen::Matrix<double, D, 1>* delta,
-                                const Index* variable_at) {
-#if defined(__SSE2__) || defined(__ARM_NEON)
-  Eigen::Matrix<double, D, D> acc = Eigen::Matrix<double, D, D>::Zero();
-  for (Index i = 1; i < size; ++i) {
-    acc += blocks[i].cwiseProduct(delta[variable_at[rows[i]]].template replicate<1, D>());
-  }
-  x -= acc.colwise().sum().transpose();
-#else
-  for (Index i = 1; i < size; ++i) {
-    x.noalias() -= blocks[i].transpose() * delta[variable_at[rows[i]]];
-  }
-#endif
-}
-
 }  // namespace
 
 template <int D>
@@ -74,6 +52,7 @@ template <int D>
 void IncrementalCholesky<D>::beginUpdate(Index new_columns, bool full_refactor) {
   LSLAM_ASSERT(!in_update_);
   LSLAM_ASSERT(new_columns >= 0 && n_ + new_columns <= a_.max_columns);
+  if (layout_pending_) layoutForSolve();
   in_update_ = true;
   if (++stamp_ == 0) {  // wrapped: forget every old stamp so none is mistaken for a current one
     std::memset(a_.queued, 0, sizeof(std::uint32_t) * static_cast<std::size_t>(a_.max_columns));
@@ -396,7 +375,9 @@ void IncrementalCholesky<D>::commit() {
   }
   n_ = staged_columns_;
   in_update_ = false;
-  if (full_) layoutForSolve();
+  // The layout waits for the next update (or compaction): a refactorization is the dearest
+  // update, and copying the whole factor (city10000: ~1.1 ms) fits better in the next, cheap one.
+  if (full_) layout_pending_ = true;
 }
 
 // Makes column k's staged values its committed ones.
@@ -458,6 +439,21 @@ Index IncrementalCholesky<D>::packColumns(Index* columns, Index num, Index* star
 }
 
 template <int D>
+std::int64_t IncrementalCholesky<D>::inPlaceProducts() {
+  LSLAM_ASSERT(in_update_ && !full_);
+  const std::uint32_t id = nextMark();
+  std::int64_t products = 0;
+  for (Index h = 0; h < heap_size_; ++h) {
+    // An added column has no structure yet, and no parent to walk to.
+    for (Index k = a_.heap[h]; k != kNoIndex && k < n_ && a_.mark[k] != id; k = parent(k)) {
+      a_.mark[k] = id;
+      products += static_cast<std::int64_t>(a_.count[k]) * a_.count[k];
+    }
+  }
+  return products;
+}
+
+template <int D>
 void IncrementalCholesky<D>::rollback() {
   LSLAM_ASSERT(in_update_);
   pool_end_ = pool_mark_;
@@ -500,6 +496,10 @@ void IncrementalCholesky<D>::rebuildChildLists() {
 template <int D>
 void IncrementalCholesky<D>::compact() {
   LSLAM_ASSERT(!in_update_);
+  if (layout_pending_) {
+    layoutForSolve();
+    if (pool_end_ == live_blocks_) return;
+  }
   Index* order = a_.scratch;
   for (Index k = 0; k < n_; ++k) order[k] = k;
   pool_end_ = packColumns(order, n_, a_.start, a_.count, 0);
@@ -510,6 +510,7 @@ template <int D>
 Index IncrementalCholesky<D>::backSubstitute(Vector* delta, const Index* variable_at,
                                              double tolerance, bool full, Index* visited) {
   LSLAM_ASSERT(!in_update_);
+  if (layout_pending_) return solveInColumnOrder(delta, variable_at, visited);
   const std::uint32_t changed = nextMark();
   std::uint32_t* const mark = a_.mark;
   Index* stack = a_.heap;
@@ -524,7 +525,7 @@ Index IncrementalCholesky<D>::backSubstitute(Vector* delta, const Index* variabl
     const Block* blocks = columnBlocks(k);
     const Index size = a_.count[k];
     Vector x = a_.d[k];
-    subtractTransposedProducts<D>(x, blocks, rows, size, delta, variable_at);
+    detail::subtractTransposedProducts<D>(x, blocks, rows, size, delta, variable_at);
     Vector& out = delta[variable_at[k]];
     const Vector updated = blocks[0].transpose() * x;
     const bool moved = (updated - out).cwiseAbs().maxCoeff() > tolerance;

@@ -17,12 +17,14 @@
 #include <cstring>
 
 #include "lslam/linear/incremental_cholesky.h"
+#include "subtract_transposed_products.h"
 
 namespace lslam {
 
 template <int D>
 void IncrementalCholesky<D>::layoutForSolve() {
   LSLAM_ASSERT(!in_update_);
+  layout_pending_ = false;  // done now, or impossible until a compaction
   Index lowest = pool_end_;
   for (Index k = 0; k < n_; ++k) lowest = std::min(lowest, a_.start[k]);
   Index base = 0;
@@ -55,8 +57,33 @@ void IncrementalCholesky<D>::layoutForSolve() {
   pool_end_ = live_blocks_;
 }
 
+// The solve right after a full refactorization, before its layout: every column needs solving, and
+// descending column order (a parent always comes after its children) reads the columns where
+// the factorization staged them, ascending, backwards and contiguously; the depth-first walk
+// jumps (city10000 at 9,981 poses: 1.44 ms against 0.80 ms laid out).
+template <int D>
+Index IncrementalCholesky<D>::solveInColumnOrder(Vector* delta, const Index* variable_at,
+                                                 Index* visited) {
+  for (Index k = n_ - 1; k >= 0; --k) {
+    const Block* blocks = columnBlocks(k);
+    Vector x = a_.d[k];
+    detail::subtractTransposedProducts<D>(x, blocks, columnRows(k), a_.count[k], delta,
+                                          variable_at);
+    delta[variable_at[k]] = blocks[0].transpose() * x;
+    a_.needs_solve[k] = 0;
+    visited[n_ - 1 - k] = k;
+  }
+  return n_;
+}
+
 template void IncrementalCholesky<2>::layoutForSolve();
+template Index IncrementalCholesky<2>::solveInColumnOrder(IncrementalCholesky<2>::Vector*,
+                                                          const Index*, Index*);
 template void IncrementalCholesky<3>::layoutForSolve();
+template Index IncrementalCholesky<3>::solveInColumnOrder(IncrementalCholesky<3>::Vector*,
+                                                          const Index*, Index*);
 template void IncrementalCholesky<6>::layoutForSolve();
+template Index IncrementalCholesky<6>::solveInColumnOrder(IncrementalCholesky<6>::Vector*,
+                                                          const Index*, Index*);
 
 }  // namespace lslam

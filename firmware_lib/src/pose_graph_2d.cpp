@@ -71,6 +71,12 @@ void PoseGraph2D::relinearize(Index variable, const SE2& point) {
   a_.staged[variable] = stamp_;
 }
 
+void PoseGraph2D::unstageRelinearization() {
+  LSLAM_ASSERT(in_update_);
+  for (Index i = 0; i < staged_count_; ++i) a_.staged[a_.staged_list[i]] = 0;  // stamps are >= 1
+  staged_count_ = 0;
+}
+
 const SE2& PoseGraph2D::linearizationPoint(Index variable) const {
   return (in_update_ && a_.staged[variable] == stamp_) ? a_.staged_linearization[variable]
                                                        : a_.linearization[variable];

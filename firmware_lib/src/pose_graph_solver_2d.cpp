@@ -146,6 +146,25 @@ bool PoseGraphSolver2D::wantsReorder() const {
           last_columns_refactored_ > options_.reorder_path_columns);
 }
 
+// Whether this update's relinearization should refactorize every column rather than recompute the
+// affected columns in place: most variables relinearized, or the in-place work estimated above a
+// full refactorization's (relinearize_full_cost_ratio).
+bool PoseGraphSolver2D::relinearizationDear(Index new_poses, Index relinearized) {
+  if (relinearized == 0) return false;
+  if (relinearizesMost(relinearized)) return true;
+  if (options_.relinearize_full_cost_ratio <= 0.0 || full_products_ == 0) return false;
+  Index* position_of = a_.position_of[active_];
+  for (Index v = cholesky_.columns(); v < cholesky_.columns() + new_poses; ++v) position_of[v] = v;
+  cholesky_.beginUpdate(new_poses, false);
+  markAffectedColumns(position_of, relinearized);
+  const std::int64_t in_place = cholesky_.inPlaceProducts();
+  cholesky_.rollback();
+  const double full = options_.relinearize_full_cost_ratio * static_cast<double>(full_products_) *
+                      static_cast<double>(cholesky_.liveBlocks()) /
+                      static_cast<double>(blocks_at_last_full_);
+  return static_cast<double>(in_place) > full;
+}
+
 // Refactorize every column when this update relinearizes a large share of the variables: that
 // recomputes most columns anyway, at twice the cost of factorizing them afresh (old contributions
 // are subtracted), so a full refactorization is cheaper (city10000: 4,223 variables relinearized
@@ -210,6 +229,24 @@ Status PoseGraphSolver2D::computeOrdering(Index* variable_at, Index* position_of
   return Status::Ok;
 }
 
+// The ordering of every committed variable, into the inactive buffer, for the next update. Without
+// ordering workspace nothing is prepared, and the next update asks again.
+bool PoseGraphSolver2D::prepareOrdering() {
+  const int other = 1 - active_;
+  ordering_prepared_ = computeOrdering(a_.variable_at[other], a_.position_of[other]) == Status::Ok;
+  prepared_variables_ = graph_.variables();
+  return ordering_prepared_;
+}
+
+// The prepared ordering (in the buffers given, the inactive ones) extended by the variables added
+// since, in the order they came: the newest stays last.
+void PoseGraphSolver2D::takePreparedOrdering(Index* variable_at, Index* position_of) const {
+  for (Index v = prepared_variables_; v < graph_.variables(); ++v) {
+    variable_at[v] = v;
+    position_of[v] = v;
+  }
+}
+
 Status PoseGraphSolver2D::update(const PoseInput* poses, Index num_poses,
                                  const FactorInput* factors, Index num_factors,
                                  UpdateResult* result) {
@@ -240,12 +277,27 @@ Status PoseGraphSolver2D::update(const PoseInput* poses, Index num_poses,
       graph_.addBetween(ids_.find(in.from), ids_.find(in.to), in.measurement, in.information);
     }
   }
-  const bool ordering_stale = wantsReorder();
-  const bool relinearize_now = relinearization_urgent_ || ordering_stale ||
-                               (options_.relinearize_skip > 0 &&
-                                updates_since_relinearization_ + 1 >= options_.relinearize_skip);
-  const Index relinearized = relinearize_now ? stageCandidates() : 0;
-  s = refactor(num_poses, relinearized, true, ordering_stale, r);
+  // A prepared ordering is applied now; a stale one is replaced now, or prepared at the end of
+  // this update and applied by the next (prepare_ordering_ahead).
+  const bool ordering_stale = ordering_prepared_ || wantsReorder();
+  bool prepare = ordering_stale && !ordering_prepared_ && options_.prepare_ordering_ahead;
+  const bool reorder_now = ordering_stale && !prepare;
+  // Every update begins the factor's update at least once, which does a pending layout.
+  r.laid_out = cholesky_.layoutPending();
+  bool relinearize_now = relinearization_urgent_ || reorder_now ||
+                         (options_.relinearize_skip > 0 &&
+                          updates_since_relinearization_ + 1 >= options_.relinearize_skip);
+  Index relinearized = relinearize_now ? stageCandidates() : 0;
+  const bool refactor_fully = !reorder_now && relinearizationDear(num_poses, relinearized);
+  if (refactor_fully && !orderingFresh() && options_.prepare_ordering_ahead) {
+    // A full refactorization in a stale ordering is nearly the price of a reordering: this update
+    // only adds its factors, and the next one reorders and relinearizes (the candidates wait).
+    graph_.unstageRelinearization();
+    relinearized = 0;
+    relinearize_now = false;
+    prepare = true;  // (a prepared ordering would have been applied: not stale)
+  }
+  s = refactor(num_poses, relinearized, true, reorder_now, refactor_fully && relinearized > 0, r);
   if (s != Status::Ok) {
     forgetNewIds(poses, num_poses);
     return s;
@@ -259,6 +311,7 @@ Status PoseGraphSolver2D::update(const PoseInput* poses, Index num_poses,
   for (Index i = 0; i < num_poses; ++i) a_.id_of[graph_.variables() - num_poses + i] = poses[i].id;
   r.variables_added = num_poses;
   r.factors_added = graph_.factors() - first_new_factor_;
+  if (prepare && !r.reordered) r.ordering_prepared = prepareOrdering();
   if (options_.solve_after_update) solve(false, &r);
   return Status::Ok;
 }
@@ -287,17 +340,22 @@ Index PoseGraphSolver2D::stageEveryMovedVariable(double tolerance) {
 
 // Factorizes the staged graph change (added poses at the end, relinearized variables in a_.marked),
 // reordering first if the policy says so; commits everything or rolls the graph back.
-// ordering_stale is wantsReorder() as update() evaluated it (false when !allow_reorder).
+// ordering_stale: update() applies a prepared ordering, or wants a fresh one now (false when
+// !allow_reorder).
 Status PoseGraphSolver2D::refactor(Index new_poses, Index relinearized, bool allow_reorder,
-                                   bool ordering_stale, UpdateResult& r) {
+                                   bool ordering_stale, bool refactor_fully, UpdateResult& r) {
   LSLAM_ASSERT(allow_reorder || !ordering_stale);
   const Index n = cholesky_.columns();
-  bool full = ordering_stale || (allow_reorder && relinearizesMost(relinearized));
+  bool full = ordering_stale || refactor_fully;
   bool reorder = ordering_stale || (full && !orderingFresh());
   int buffer = active_;
   if (reorder) {
     buffer = 1 - active_;
-    reorder = computeOrdering(a_.variable_at[buffer], a_.position_of[buffer]) == Status::Ok;
+    if (ordering_prepared_) {
+      takePreparedOrdering(a_.variable_at[buffer], a_.position_of[buffer]);
+    } else {
+      reorder = computeOrdering(a_.variable_at[buffer], a_.position_of[buffer]) == Status::Ok;
+    }
     if (!reorder) buffer = active_;  // no workspace for an ordering: keep the current one
     full = reorder;
   }
@@ -318,12 +376,18 @@ Status PoseGraphSolver2D::refactor(Index new_poses, Index relinearized, bool all
     return s;
   }
   if (top_reordered) buffer = 1 - active_;  // the reordered update wrote the other buffer
+  // Applied, or overwritten by a reordered update of the top.
+  if (reorder || top_reordered) ordering_prepared_ = false;
   graph_.commit();
   active_ = buffer;
   for (Index i = 0; i < relinearized; ++i) a_.delta[a_.marked[i]].setZero();
   for (Index v = n; v < n + new_poses; ++v) a_.delta[v].setZero();
   const FactorizationStats& stats = cholesky_.lastStats();
   noteOrderingWork(reorder, stats.block_products);
+  if (full) {
+    full_products_ = stats.block_products;
+    blocks_at_last_full_ = cholesky_.liveBlocks();
+  }
   if (!full) largest_staging_ = std::max(largest_staging_, stats.blocks_written);
   last_columns_refactored_ = full ? 0 : stats.columns_recomputed;
   r.reordered = reorder;
@@ -524,7 +588,7 @@ Status PoseGraphSolver2D::optimize(Index max_iterations, double tolerance, Updat
       break;
     }
     UpdateResult step;
-    const Status s = refactor(0, relinearized, false, false, step);
+    const Status s = refactor(0, relinearized, false, false, false, step);
     if (s != Status::Ok) {
       r.status = s;
       return s;

@@ -37,6 +37,7 @@ int usage() {
                "                 [--reorder-growth G] [--reorder-excess R]\n"
                "                 [--reorder-path COLUMNS]\n"
                "                 [--reorder-relinearized SHARE] [--reorder-refresh G]\n"
+               "                 [--relinearize-full-cost RATIO] [--order-in-one-update]\n"
                "                 [--reorder-top] [--no-row-updates]\n"
                "       lslam-sim generate OUT.g2o [--poses N] [--seed S]\n");
   return 2;
@@ -247,6 +248,10 @@ int main(int argc, char** argv) {
         args.solver.reorder_relinearized_share = std::atof(argv[++i]);
       } else if (a == "--reorder-refresh" && has_value) {
         args.solver.reorder_refresh_growth = std::atof(argv[++i]);
+      } else if (a == "--relinearize-full-cost" && has_value) {
+        args.solver.relinearize_full_cost_ratio = std::atof(argv[++i]);
+      } else if (a == "--order-in-one-update") {
+        args.solver.prepare_ordering_ahead = false;
       } else if (a == "--reorder-path" && has_value) {
         args.solver.reorder_path_columns = std::atoi(argv[++i]);
       } else {

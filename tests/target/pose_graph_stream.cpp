@@ -97,7 +97,9 @@ bool initialPose(const lslam::stream::StreamStep& step, lslam::PoseInput* pose) 
 StepKind kindOf(const lslam::stream::StreamStep& step, const lslam::UpdateResult& result) {
   if (step.factor_count == 0) return StepKind::First;
   if (result.reordered) return StepKind::Reorder;
+  if (result.ordering_prepared) return StepKind::PrepareOrdering;
   if (result.variables_relinearized > 0) return StepKind::Relinearization;
+  if (result.laid_out) return StepKind::Layout;
   return step.loop_closure ? StepKind::LoopClosure : StepKind::Odometry;
 }
 

@@ -13,8 +13,9 @@ using lslam::target::Line;
 constexpr std::int32_t kMaxSteps = 1024;
 std::uint64_t g_sorted[kMaxSteps];  // scratch for medians (no heap)
 
-constexpr StepKind kKinds[] = {StepKind::First, StepKind::Odometry, StepKind::LoopClosure,
-                               StepKind::Relinearization, StepKind::Reorder};
+constexpr StepKind kKinds[] = {
+    StepKind::First,           StepKind::Odometry, StepKind::LoopClosure, StepKind::Relinearization,
+    StepKind::PrepareOrdering, StepKind::Reorder,  StepKind::Layout};
 
 const char* name(StepKind kind) {
   switch (kind) {
@@ -22,8 +23,12 @@ const char* name(StepKind kind) {
       return "first";
     case StepKind::Reorder:
       return "reorder";
+    case StepKind::PrepareOrdering:
+      return "prepare-ordering";
     case StepKind::Relinearization:
       return "relinearization";
+    case StepKind::Layout:
+      return "layout";
     case StepKind::LoopClosure:
       return "loop-closure";
     case StepKind::Odometry:

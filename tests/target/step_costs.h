@@ -7,7 +7,17 @@
 // What a step did, the first that applies: the very first pose; a COLAMD reordering (with a full
 // refactorization); a relinearization of some variables; a loop closure (a measurement other than
 // odometry); odometry only.
-enum class StepKind : std::uint8_t { First, Reorder, Relinearization, LoopClosure, Odometry };
+// A step that prepared an ordering, or laid the factor out after a full refactorization, is
+// counted apart: that maintenance comes on top of whatever else the step did.
+enum class StepKind : std::uint8_t {
+  First,
+  Reorder,
+  PrepareOrdering,
+  Relinearization,
+  Layout,
+  LoopClosure,
+  Odometry
+};
 
 struct StepCost {
   std::uint64_t instructions = 0;   // update() + solve(), resolution kInstructionsPerTick

@@ -49,6 +49,9 @@ class PoseGraph2D final : public InformationSource<3> {
   Index addBetween(Index from, Index to, const SE2& z, const Mat3& information);
   // Moves the linearization point of `variable` (staged until commit).
   void relinearize(Index variable, const SE2& point);
+  // Forgets the linearization points staged by relinearize() in this update (the update's added
+  // variables and factors stay).
+  void unstageRelinearization();
   void commit();
   void rollback();
 

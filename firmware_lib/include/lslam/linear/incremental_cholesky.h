@@ -110,6 +110,9 @@ class IncrementalCholesky {
   Index liveBlocks() const { return live_blocks_; }
   Index poolEnd() const { return pool_end_; }
   Index poolCapacity() const { return a_.max_blocks; }
+  // A full refactorization's columns wait for their layout (done by the next beginUpdate() or
+  // compact()); the solve meanwhile reads them in column order.
+  bool layoutPending() const { return layout_pending_; }
 
   // --- one update: begin, mark changed columns, factorize, then commit or roll back ---
   // Adds `new_columns` columns at the end. With full_refactor every column is recomputed from
@@ -123,6 +126,11 @@ class IncrementalCholesky {
                                  const Index* position_of);
   void commit();
   void rollback();
+  // What factorize() would cost for the columns marked so far: the block products of recomputing
+  // them and their etree ancestors in place, about count^2 per column (its updated contribution and
+  // its old one), from the current structures (which can only grow, so a lower bound). For
+  // choosing, before either starts, between that and a full refactorization.
+  std::int64_t inPlaceProducts();
 
   // --- a reordered update (iSAM2's re-elimination of the top of the tree) ---
   // Instead of factorize(): the affected set A (the changed columns, their etree ancestors, and the
@@ -208,6 +216,7 @@ class IncrementalCholesky {
   void installStaged(Index k);
   void settleStagedColumns();
   void layoutForSolve();
+  Index solveInColumnOrder(Vector* delta, const Index* variable_at, Index* visited);
   Index packColumns(Index* columns, Index num, Index* start, const Index* count, Index write);
   [[nodiscard]] Status rowUpdateColumn(Index k, const Index* pattern, Index pattern_size,
                                        Vector& rhs);
@@ -231,6 +240,7 @@ class IncrementalCholesky {
   Index top_base_ = 0;          // the first reordered position of A
   bool top_collected_ = false;  // affectedTopSize() has filled `affected` in this update
   bool in_update_ = false;
+  bool layout_pending_ = false;        // a full refactorization's columns await layoutForSolve()
   std::uint32_t row_update_mark_ = 0;  // a_.mark of the columns a row update staged (0: none)
   FactorizationStats stats_;
 };

@@ -94,14 +94,17 @@ class PoseGraphSolver2D {
   void forgetNewIds(const PoseInput* poses, Index num_poses);
   bool wantsReorder() const;
   bool relinearizesMost(Index relinearized) const;
+  bool relinearizationDear(Index new_poses, Index relinearized);
   bool orderingFresh() const;
   bool likelyOutOfPool(bool full, Index relinearized, const Index* position_of) const;
   void noteOrderingWork(bool reordered, std::int64_t block_products);
   Status computeOrdering(Index* variable_at, Index* position_of);
+  bool prepareOrdering();
+  void takePreparedOrdering(Index* variable_at, Index* position_of) const;
   Index stageCandidates();
   Index stageEveryMovedVariable(double tolerance);
   Status refactor(Index new_poses, Index relinearized, bool allow_reorder, bool ordering_stale,
-                  UpdateResult& result);
+                  bool refactor_fully, UpdateResult& result);
   Status factorizeWithRetry(bool full, bool allow_top_reorder, Index new_columns,
                             const Index* variable_at, const Index* position_of, Index relinearized,
                             bool* top_reordered, UpdateResult& result);
@@ -126,6 +129,9 @@ class PoseGraphSolver2D {
   Index marked_count_ = 0;
   Index first_new_factor_ = 0;
   Index blocks_at_last_order_ = 0;
+  // The block products of the last full refactorization and the factor's blocks after it.
+  std::int64_t full_products_ = 0;
+  Index blocks_at_last_full_ = 0;
   Index last_columns_refactored_ = 0;
   Index largest_staging_ = 0;  // the most pool blocks an update other than a full one staged
   // Work spent on the factor's growth since the last ordering, and the budget for it (both
@@ -134,6 +140,10 @@ class PoseGraphSolver2D {
   std::int64_t excess_budget_ = 0;
   Index updates_since_relinearization_ = 0;
   bool relinearization_urgent_ = false;  // a waiting candidate passed the urgent threshold
+  // The inactive order buffer holds a COLAMD ordering of the first `prepared_variables_`
+  // variables, prepared by an earlier update for the next one (see prepare_ordering_ahead).
+  bool ordering_prepared_ = false;
+  Index prepared_variables_ = 0;
 };
 
 namespace detail {

@@ -41,6 +41,12 @@ struct SolverOptions {
   // ordering (a fresh COLAMD order would be about the same).
   double reorder_relinearized_share = 0.05;
   double reorder_refresh_growth = 1.05;
+  // ...and so does one whose recomputation in place would take more block products than this many
+  // times a full refactorization (estimated from the last one, scaled by the factor's growth). In
+  // place, a column costs twice (its old contribution is taken back), and a few hundred variables
+  // relinearized under a stale ordering can reach most of the top: city10000 at 9,980 poses, 482
+  // variables took 5.2 million products (23 ms) where refactorizing all took 2.1 million. 0: off.
+  double relinearize_full_cost_ratio = 1.0;
   // Updates that only add factors (no variable relinearized, no reordering) rotate the added
   // factors' whitened rows into L along their etree paths (IncrementalCholesky::addFactorRows):
   // O(s) work per column of structure s instead of O(s^2) for recomputing the column. Off: every
@@ -54,6 +60,13 @@ struct SolverOptions {
   // city10000 (README "Measured"), because the top it builds is a dense clique of 3x3 blocks.
   bool reorder_affected_top = false;
   Index reorder_top_min_columns = 8;
+  // A reordering is split over two updates: the update at which the policy above first asks for
+  // one runs as usual and then computes the COLAMD ordering (of every variable it leaves
+  // committed); the next update applies it, with the variables added since appended last, and
+  // refactorizes. The fresh ordering is then one update old, which costs nothing measurable in
+  // fill, and the dearest update of a long run (the refactorization of the whole factor) no longer
+  // pays for COLAMD too (city10000 at 9,981 poses: 3.2 of 21.5 ms). Off: both in one update.
+  bool prepare_ordering_ahead = true;
   // Never reorder graphs smaller than this (chronological order is optimal for a chain).
   Index reorder_min_variables = 50;
   // Information of the prior that anchors the very first pose when the caller gives none.

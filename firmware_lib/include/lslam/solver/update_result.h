@@ -17,8 +17,10 @@ struct UpdateResult {
   std::int64_t block_products = 0;  // 3x3 multiply-adds of the factorization
   bool reordered = false;           // a COLAMD reordering (and full refactorization) happened
   bool refactored_fully = false;    // every column recomputed (a reordering, or most relinearized)
+  bool ordering_prepared = false;   // a COLAMD ordering was computed for the next update to apply
   bool top_reordered = false;       // the affected top alone was reordered and refactorized
   bool compacted = false;           // the block pool was compacted
+  bool laid_out = false;            // the last full refactorization's layout was done here
   Index factor_blocks = 0;          // nonzero blocks of L after the call
   Index iterations = 0;             // optimize(): Gauss-Newton iterations done
 };
