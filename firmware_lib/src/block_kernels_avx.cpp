@@ -98,7 +98,42 @@ __attribute__((target("avx2,fma"))) void addBlockProductsOfColumnsAvx(
     const Mat3* const* columns, const Mat3* s, Index num_columns, const Index* rows, Index first,
     Index size, const Index* target_rows, Mat3* target) {
   Index p = 1;
-  for (Index b = first; b < size; ++b) {
+  Index b = first;
+  // Two rows at a time: each broadcast of an s entry (the loads, not the multiply-adds, set the
+  // pace here) serves both. Every target entry still sums its products in the same order.
+  for (; b + 1 < size; b += 2) {
+    while (target_rows[p] < rows[b]) ++p;
+    LSLAM_DEBUG_ASSERT(target_rows[p] == rows[b]);
+    Index q = p + 1;
+    while (target_rows[q] < rows[b + 1]) ++q;
+    LSLAM_DEBUG_ASSERT(target_rows[q] == rows[b + 1]);
+    double* t_data = target[p].data();
+    double* u_data = target[q].data();
+    __m256d t[3] = {loadColumn(t_data, 0), loadColumn(t_data, 1), loadColumn(t_data, 2)};
+    __m256d u[3] = {loadColumn(u_data, 0), loadColumn(u_data, 1), loadColumn(u_data, 2)};
+    for (Index m = 0; m < num_columns; ++m) {
+      const double* b_data = columns[m][b].data();
+      const double* c_data = columns[m][b + 1].data();
+      const __m256d b0 = loadColumn(b_data, 0);
+      const __m256d b1 = loadColumn(b_data, 1);
+      const __m256d b2 = loadColumn(b_data, 2);
+      const __m256d c0 = loadColumn(c_data, 0);
+      const __m256d c1 = loadColumn(c_data, 1);
+      const __m256d c2 = loadColumn(c_data, 2);
+      const Mat3& sm = s[m];
+      for (int c = 0; c < 3; ++c) {
+        const __m256d s0 = _mm256_broadcast_sd(&sm(0, c));
+        const __m256d s1 = _mm256_broadcast_sd(&sm(1, c));
+        const __m256d s2 = _mm256_broadcast_sd(&sm(2, c));
+        t[c] = _mm256_fmadd_pd(b2, s2, _mm256_fmadd_pd(b1, s1, _mm256_fmadd_pd(b0, s0, t[c])));
+        u[c] = _mm256_fmadd_pd(c2, s2, _mm256_fmadd_pd(c1, s1, _mm256_fmadd_pd(c0, s0, u[c])));
+      }
+    }
+    storeColumns(t_data, t[0], t[1], t[2]);
+    storeColumns(u_data, u[0], u[1], u[2]);
+    p = q;
+  }
+  for (; b < size; ++b) {
     while (target_rows[p] < rows[b]) ++p;
     LSLAM_DEBUG_ASSERT(target_rows[p] == rows[b]);
     double* t_data = target[p].data();
