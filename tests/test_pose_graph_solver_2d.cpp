@@ -188,6 +188,33 @@ TEST_CASE(
   }
 }
 
+TEST_CASE(
+    "an ordering is prepared ahead only once a full refactorization costs "
+    "prepare_ordering_min_products") {
+  SolverOptions options;
+  options.reorder_min_variables = 20;
+  options.prepare_ordering_min_products = 4000;
+  int prepared = 0;
+  int in_one_update = 0;
+  for (std::uint32_t seed = 70; seed < 73; ++seed) {
+    CAPTURE(seed);
+    std::int64_t last_full = 0;  // block products of the last full refactorization
+    runOnline(200, seed, options, [&](const lslam::UpdateResult& r, bool was_prepared) {
+      if (r.ordering_prepared) {
+        CHECK(last_full >= options.prepare_ordering_min_products);
+        ++prepared;
+      }
+      if (r.reordered && !was_prepared) {
+        CHECK(last_full < options.prepare_ordering_min_products);
+        ++in_one_update;
+      }
+      if (r.refactored_fully) last_full = r.block_products;
+    });
+  }
+  CHECK(prepared > 0);
+  CHECK(in_one_update > 1);
+}
+
 TEST_CASE("the rent-or-buy rule reorders exactly when the growth work passes its budget") {
   // The rule re-derived from what every update reports: after an ordering, the budget is
   // ratio x (its factorization's block products) x (its factor blocks); every later update adds

@@ -229,6 +229,11 @@ Status PoseGraphSolver2D::computeOrdering(Index* variable_at, Index* position_of
   return Status::Ok;
 }
 
+bool PoseGraphSolver2D::preparesOrderingAhead() const {
+  return options_.prepare_ordering_ahead &&
+         full_products_ >= options_.prepare_ordering_min_products;
+}
+
 // The ordering of every committed variable, into the inactive buffer, for the next update. Without
 // ordering workspace nothing is prepared, and the next update asks again.
 bool PoseGraphSolver2D::prepareOrdering() {
@@ -280,7 +285,7 @@ Status PoseGraphSolver2D::update(const PoseInput* poses, Index num_poses,
   // A prepared ordering is applied now; a stale one is replaced now, or prepared at the end of
   // this update and applied by the next (prepare_ordering_ahead).
   const bool ordering_stale = ordering_prepared_ || wantsReorder();
-  bool prepare = ordering_stale && !ordering_prepared_ && options_.prepare_ordering_ahead;
+  bool prepare = ordering_stale && !ordering_prepared_ && preparesOrderingAhead();
   const bool reorder_now = ordering_stale && !prepare;
   // Every update begins the factor's update at least once, which does a pending layout.
   r.laid_out = cholesky_.layoutPending();
@@ -289,7 +294,7 @@ Status PoseGraphSolver2D::update(const PoseInput* poses, Index num_poses,
                           updates_since_relinearization_ + 1 >= options_.relinearize_skip);
   Index relinearized = relinearize_now ? stageCandidates() : 0;
   const bool refactor_fully = !reorder_now && relinearizationDear(num_poses, relinearized);
-  if (refactor_fully && !orderingFresh() && options_.prepare_ordering_ahead) {
+  if (refactor_fully && !orderingFresh() && preparesOrderingAhead()) {
     // A full refactorization in a stale ordering is nearly the price of a reordering: this update
     // only adds its factors, and the next one reorders and relinearizes (the candidates wait).
     graph_.unstageRelinearization();

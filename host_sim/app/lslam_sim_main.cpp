@@ -38,6 +38,7 @@ int usage() {
                "                 [--reorder-path COLUMNS]\n"
                "                 [--reorder-relinearized SHARE] [--reorder-refresh G]\n"
                "                 [--relinearize-full-cost RATIO] [--order-in-one-update]\n"
+               "                 [--prepare-min-products N]\n"
                "                 [--reorder-top] [--no-row-updates]\n"
                "       lslam-sim generate OUT.g2o [--poses N] [--seed S]\n");
   return 2;
@@ -250,6 +251,8 @@ int main(int argc, char** argv) {
         args.solver.reorder_refresh_growth = std::atof(argv[++i]);
       } else if (a == "--relinearize-full-cost" && has_value) {
         args.solver.relinearize_full_cost_ratio = std::atof(argv[++i]);
+      } else if (a == "--prepare-min-products" && has_value) {
+        args.solver.prepare_ordering_min_products = std::atoll(argv[++i]);
       } else if (a == "--order-in-one-update") {
         args.solver.prepare_ordering_ahead = false;
       } else if (a == "--reorder-path" && has_value) {

@@ -100,6 +100,7 @@ class PoseGraphSolver2D {
   void noteOrderingWork(bool reordered, std::int64_t block_products);
   Status computeOrdering(Index* variable_at, Index* position_of);
   bool prepareOrdering();
+  bool preparesOrderingAhead() const;
   void takePreparedOrdering(Index* variable_at, Index* position_of) const;
   Index stageCandidates();
   Index stageEveryMovedVariable(double tolerance);

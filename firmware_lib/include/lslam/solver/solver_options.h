@@ -67,6 +67,12 @@ struct SolverOptions {
   // fill, and the dearest update of a long run (the refactorization of the whole factor) no longer
   // pays for COLAMD too (city10000 at 9,981 poses: 3.2 of 21.5 ms). Off: both in one update.
   bool prepare_ordering_ahead = true;
+  // ...once the last full refactorization took at least this many block products: the split
+  // costs an update in the stale order (manhattanOlson3500, whose refactorizations stay below
+  // ~135,000 products, 1 ms here: +5 % total time for -30 % on its worst step). Which reordering
+  // is too dear for one update depends on the platform's step budget (a block product is ~5 ns
+  // on the host, ~100 instructions on the Cortex-M7), so the default splits them all.
+  std::int64_t prepare_ordering_min_products = 0;
   // Never reorder graphs smaller than this (chronological order is optimal for a chain).
   Index reorder_min_variables = 50;
   // Information of the prior that anchors the very first pose when the caller gives none.
