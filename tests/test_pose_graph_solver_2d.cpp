@@ -364,30 +364,17 @@ FactorInput between(VariableId from, VariableId to, const SE2& z) {
   return f;
 }
 
-}  // namespace
+struct BadCall {
+  const char* what;
+  std::vector<PoseInput> poses;
+  std::vector<FactorInput> factors;
+  Status expected;
+};
 
-TEST_CASE("every rejected input returns its status and leaves the solver bit-identical") {
-  auto solver = std::make_unique<SmallSolver>();
-  auto reference = std::make_unique<SmallSolver>();  // sees only the valid inputs
-  const SE2 step(1.0, 0.0, 0.1);
-  auto feed = [&](PoseGraphSolver2D& s, VariableId id) {
-    PoseInput p{id, SE2(static_cast<double>(id), 0.0, 0.0)};
-    if (id == 0) return s.update(&p, 1, nullptr, 0);
-    FactorInput f[2] = {between(id - 1, id, step), between(id / 2, id, SE2(0.5, 0.2, 0.0))};
-    return s.update(&p, 1, f, id > 3 ? 2 : 1);
-  };
-  for (VariableId id = 0; id < 30; ++id) {
-    REQUIRE(feed(*solver, id) == Status::Ok);
-    REQUIRE(feed(*reference, id) == Status::Ok);
-  }
+// Calls that must be rejected when poses 0 .. n - 1 exist (n > 13).
+std::vector<BadCall> badCalls(VariableId n, const SE2& step) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const double inf = std::numeric_limits<double>::infinity();
-  struct BadCall {
-    const char* what;
-    std::vector<PoseInput> poses;
-    std::vector<FactorInput> factors;
-    Status expected;
-  };
   Mat3 not_symmetric = Mat3::Identity();
   not_symmetric(0, 1) = 0.5;
   Mat3 indefinite = Mat3::Identity();
@@ -395,19 +382,19 @@ TEST_CASE("every rejected input returns its status and leaves the solver bit-ide
   Mat3 nan_info = Mat3::Identity();
   nan_info(1, 1) = nan;
   auto with_info = [&](const Mat3& info) {
-    FactorInput f = between(29, 30, step);
+    FactorInput f = between(n - 1, n, step);
     f.information = info;
     return f;
   };
-  const PoseInput next{30, SE2(30.0, 0.0, 0.0)};
-  std::vector<BadCall> calls = {
+  const PoseInput next{n, SE2(static_cast<double>(n), 0.0, 0.0)};
+  return {
       {"NaN in a measurement",
        {next},
-       {between(29, 30, SE2(nan, 0.0, 0.0))},
+       {between(n - 1, n, SE2(nan, 0.0, 0.0))},
        Status::NonFiniteInput},
       {"Inf in an initial value",
-       {{30, SE2(inf, 0.0, 0.0)}},
-       {between(29, 30, step)},
+       {{n, SE2(inf, 0.0, 0.0)}},
+       {between(n - 1, n, step)},
        Status::NonFiniteInput},
       {"NaN in an information matrix", {next}, {with_info(nan_info)}, Status::NonFiniteInput},
       {"non-symmetric information",
@@ -424,7 +411,7 @@ TEST_CASE("every rejected input returns its status and leaves the solver bit-ide
        Status::InformationNotPositiveDefinite},
       {"unknown pose id",
        {next},
-       {between(29, 30, step), between(77, 30, step)},
+       {between(n - 1, n, step), between(n + 47, n, step)},
        Status::UnknownVariable},
       {"duplicate pose id (existing)",
        {{12, SE2()}},
@@ -432,29 +419,66 @@ TEST_CASE("every rejected input returns its status and leaves the solver bit-ide
        Status::DuplicateVariable},
       {"duplicate pose id (twice in one call)",
        {next, next},
-       {between(29, 30, step)},
+       {between(n - 1, n, step)},
        Status::DuplicateVariable},
       {"unconstrained new pose",
-       {next, {31, SE2()}},
-       {between(29, 30, step)},
+       {next, {n + 1, SE2()}},
+       {between(n - 1, n, step)},
        Status::UnconstrainedVariable},
       {"self loop",
        {next},
-       {between(29, 30, step), between(30, 30, step)},
+       {between(n - 1, n, step), between(n, n, step)},
        Status::InvalidArgument},
-      {"negative id", {{-4, SE2()}}, {between(29, -4, step)}, Status::InvalidArgument},
+      {"negative id", {{-4, SE2()}}, {between(n - 1, -4, step)}, Status::InvalidArgument},
   };
-  const Snapshot before = snapshot(*solver);
-  for (const BadCall& call : calls) {
-    CAPTURE(call.what);
+}
+
+}  // namespace
+
+TEST_CASE("every rejected input returns its status and leaves the solver bit-identical") {
+  // Rejected in three states: before any ordering, with an ordering prepared for the next update,
+  // and with a full refactorization's layout pending; both must survive the rejected calls.
+  auto solver = std::make_unique<SmallSolver>();
+  auto reference = std::make_unique<SmallSolver>();  // sees only the valid inputs
+  const SE2 step(1.0, 0.0, 0.1);
+  auto feed = [&](PoseGraphSolver2D& s, VariableId id, UpdateResult* r = nullptr) {
+    PoseInput p{id, SE2(static_cast<double>(id), 0.0, 0.0)};
+    if (id == 0) return s.update(&p, 1, nullptr, 0, r);
+    FactorInput f[2] = {between(id - 1, id, step), between(id / 2, id, SE2(0.5, 0.2, 0.0))};
+    return s.update(&p, 1, f, id > 3 ? 2 : 1, r);
+  };
+  VariableId n = 0;  // the next pose id
+  auto feedBoth = [&]() {
     UpdateResult r;
-    const Status s =
-        solver->update(call.poses.data(), static_cast<Index>(call.poses.size()),
-                       call.factors.data(), static_cast<Index>(call.factors.size()), &r);
-    CHECK(s == call.expected);
-    CHECK(r.status == call.expected);
-    CHECK(snapshot(*solver) == before);
-  }
+    REQUIRE(feed(*solver, n, &r) == Status::Ok);
+    REQUIRE(feed(*reference, n) == Status::Ok);
+    ++n;
+    return r;
+  };
+  auto rejectAll = [&](const char* state) {
+    CAPTURE(state);
+    const Snapshot before = snapshot(*solver);
+    for (const BadCall& call : badCalls(n, step)) {
+      CAPTURE(call.what);
+      UpdateResult r;
+      const Status s =
+          solver->update(call.poses.data(), static_cast<Index>(call.poses.size()),
+                         call.factors.data(), static_cast<Index>(call.factors.size()), &r);
+      CHECK(s == call.expected);
+      CHECK(r.status == call.expected);
+      CHECK(snapshot(*solver) == before);
+    }
+  };
+  while (n < 30) feedBoth();
+  rejectAll("no ordering yet");
+  bool prepared = false;
+  while (!prepared && n < 200) prepared = feedBoth().ordering_prepared;
+  REQUIRE(prepared);
+  rejectAll("an ordering prepared");
+  REQUIRE(feedBoth().reordered);
+  REQUIRE(solver->factor().layoutPending());
+  rejectAll("the layout pending");
+  CHECK(feedBoth().laid_out);
   // Capacity: a solver that is full rejects the next pose and keeps everything.
   auto tiny = std::make_unique<StaticPoseGraphSolver2D<5, 8, 200>>();
   for (VariableId id = 0; id < 5; ++id) REQUIRE(feed(*tiny, id) == Status::Ok);
@@ -462,10 +486,8 @@ TEST_CASE("every rejected input returns its status and leaves the solver bit-ide
   CHECK(feed(*tiny, 5) == Status::CapacityExhausted);
   CHECK(snapshot(*tiny) == full);
   // After all that, the solver goes on exactly like one that never saw the bad inputs.
-  for (VariableId id = 30; id < 60; ++id) {
-    REQUIRE(feed(*solver, id) == Status::Ok);
-    REQUIRE(feed(*reference, id) == Status::Ok);
-  }
+  const VariableId last = n + 30;
+  while (n < last) feedBoth();
   CHECK(snapshot(*solver) == snapshot(*reference));
 }
 
