@@ -282,32 +282,15 @@ Status PoseGraphSolver2D::update(const PoseInput* poses, Index num_poses,
       graph_.addBetween(ids_.find(in.from), ids_.find(in.to), in.measurement, in.information);
     }
   }
-  // A prepared ordering is applied now; a stale one is replaced now, or prepared at the end of
-  // this update and applied by the next (prepare_ordering_ahead).
-  const bool ordering_stale = ordering_prepared_ || wantsReorder();
-  bool prepare = ordering_stale && !ordering_prepared_ && preparesOrderingAhead();
-  const bool reorder_now = ordering_stale && !prepare;
   // Every update begins the factor's update at least once, which does a pending layout.
   r.laid_out = cholesky_.layoutPending();
-  bool relinearize_now = relinearization_urgent_ || reorder_now ||
-                         (options_.relinearize_skip > 0 &&
-                          updates_since_relinearization_ + 1 >= options_.relinearize_skip);
-  Index relinearized = relinearize_now ? stageCandidates() : 0;
-  const bool refactor_fully = !reorder_now && relinearizationDear(num_poses, relinearized);
-  if (refactor_fully && !orderingFresh() && preparesOrderingAhead()) {
-    // A full refactorization in a stale ordering is nearly the price of a reordering: this update
-    // only adds its factors, and the next one reorders and relinearizes (the candidates wait).
-    graph_.unstageRelinearization();
-    relinearized = 0;
-    relinearize_now = false;
-    prepare = true;  // (a prepared ordering would have been applied: not stale)
-  }
-  s = refactor(num_poses, relinearized, true, reorder_now, refactor_fully && relinearized > 0, r);
+  const UpdatePlan plan = planUpdate(num_poses);
+  s = refactor(num_poses, plan.relinearized, true, plan.reorder_now, plan.refactor_fully, r);
   if (s != Status::Ok) {
     forgetNewIds(poses, num_poses);
     return s;
   }
-  if (relinearize_now) {
+  if (plan.relinearize_now) {
     clearRelinearizationCandidates();
     updates_since_relinearization_ = 0;
   } else {
@@ -316,9 +299,36 @@ Status PoseGraphSolver2D::update(const PoseInput* poses, Index num_poses,
   for (Index i = 0; i < num_poses; ++i) a_.id_of[graph_.variables() - num_poses + i] = poses[i].id;
   r.variables_added = num_poses;
   r.factors_added = graph_.factors() - first_new_factor_;
-  if (prepare && !r.reordered) r.ordering_prepared = prepareOrdering();
+  if (plan.prepare_ordering && !r.reordered) r.ordering_prepared = prepareOrdering();
   if (options_.solve_after_update) solve(false, &r);
   return Status::Ok;
+}
+
+// What an update does besides adding its poses and factors (their graph change is staged): a
+// prepared ordering is applied now; a stale one is replaced now, or prepared at the end of this
+// update and applied by the next (prepare_ordering_ahead). The candidates are relinearized when
+// one is urgent, at a reordering, or every relinearize_skip updates; in place, or by a full
+// refactorization when that is cheaper (relinearizationDear).
+PoseGraphSolver2D::UpdatePlan PoseGraphSolver2D::planUpdate(Index new_poses) {
+  UpdatePlan plan;
+  const bool ordering_stale = ordering_prepared_ || wantsReorder();
+  plan.prepare_ordering = ordering_stale && !ordering_prepared_ && preparesOrderingAhead();
+  plan.reorder_now = ordering_stale && !plan.prepare_ordering;
+  plan.relinearize_now = relinearization_urgent_ || plan.reorder_now ||
+                         (options_.relinearize_skip > 0 &&
+                          updates_since_relinearization_ + 1 >= options_.relinearize_skip);
+  plan.relinearized = plan.relinearize_now ? stageCandidates() : 0;
+  plan.refactor_fully = !plan.reorder_now && relinearizationDear(new_poses, plan.relinearized);
+  if (plan.refactor_fully && !orderingFresh() && preparesOrderingAhead()) {
+    // A full refactorization in a stale ordering is nearly the price of a reordering: this update
+    // only adds its factors, and the next one reorders and relinearizes (the candidates wait).
+    graph_.unstageRelinearization();
+    plan.relinearized = 0;
+    plan.relinearize_now = false;
+    plan.refactor_fully = false;
+    plan.prepare_ordering = true;  // (a prepared ordering would have been applied: not stale)
+  }
+  return plan;
 }
 
 // The variables the last solve found beyond the relinearization threshold.

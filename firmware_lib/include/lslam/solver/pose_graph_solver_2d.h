@@ -87,6 +87,14 @@ class PoseGraphSolver2D {
   const Index* variableAt() const { return a_.variable_at[active_]; }
 
  private:
+  struct UpdatePlan {
+    bool reorder_now = false;       // a full refactorization in a fresh (or the prepared) ordering
+    bool prepare_ordering = false;  // COLAMD at the end of the update, for the next
+    bool relinearize_now = false;   // the candidates were due (their points staged, or waiting)
+    Index relinearized = 0;         // variables whose linearization points are staged
+    bool refactor_fully = false;    // relinearize by a full refactorization in the current order
+  };
+
   Status validate(const PoseInput* poses, Index num_poses, const FactorInput* factors,
                   Index num_factors);
   Status checkAnchored(const PoseInput* poses, Index num_poses, const FactorInput* factors,
@@ -95,6 +103,7 @@ class PoseGraphSolver2D {
   bool wantsReorder() const;
   bool relinearizesMost(Index relinearized) const;
   bool relinearizationDear(Index new_poses, Index relinearized);
+  UpdatePlan planUpdate(Index new_poses);
   bool orderingFresh() const;
   bool likelyOutOfPool(bool full, Index relinearized, const Index* position_of) const;
   void noteOrderingWork(bool reordered, std::int64_t block_products);
