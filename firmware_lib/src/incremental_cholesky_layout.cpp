@@ -5,7 +5,9 @@
 // forwards instead of jumping from column to column: a full solve of city10000's factor at 9,000
 // poses takes ~220 us instead of ~315 us. Later updates keep the layout for every column whose
 // structure does not grow (see settleStagedColumns); grown and added columns go to the tail until
-// the next full refactorization lays the factor out again.
+// the next full refactorization lays the factor out again. The layout of a full refactorization
+// is done by the next beginUpdate() or compact() (layout_pending_): the refactorization is the
+// dearest update, and a whole copy of the factor fits better in the next, cheap one.
 //
 // The columns are written straight to the front when every one lies beyond the live size (after
 // a full refactorization, which leaves the fresh columns above the old ones); otherwise through

@@ -28,7 +28,8 @@
 // settleStagedColumns), so only the old versions of grown columns become garbage, which
 // compact() squeezes out.
 // After a full refactorization the live columns are rewritten to the front of the pool in the
-// order the back-substitution visits them (see layoutForSolve), which the copy-back then keeps.
+// order the back-substitution visits them (see layoutForSolve), by the next update or compaction
+// (until then the solve reads them in column order), and the copy-back then keeps that layout.
 //
 // Storage of a column k: its first block is the *inverse* of the diagonal block, L(k,k)^-1, because
 // every later use (forward and back substitution) needs the inverse; then the blocks L(r, k) for
