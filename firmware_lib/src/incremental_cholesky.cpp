@@ -524,10 +524,8 @@ Index IncrementalCholesky<D>::backSubstitute(Vector* delta, const Index* variabl
     const Index* rows = columnRows(k);
     const Block* blocks = columnBlocks(k);
     const Index size = a_.count[k];
-    Vector x = a_.d[k];
-    detail::subtractTransposedProducts<D>(x, blocks, rows, size, delta, variable_at);
     Vector& out = delta[variable_at[k]];
-    const Vector updated = blocks[0].transpose() * x;
+    const Vector updated = detail::solveColumn<D>(a_.d[k], blocks, rows, size, delta, variable_at);
     const bool moved = (updated - out).cwiseAbs().maxCoeff() > tolerance;
     out = updated;
     a_.needs_solve[k] = 0;

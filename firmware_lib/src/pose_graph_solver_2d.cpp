@@ -299,7 +299,9 @@ Status PoseGraphSolver2D::update(const PoseInput* poses, Index num_poses,
   for (Index i = 0; i < num_poses; ++i) a_.id_of[graph_.variables() - num_poses + i] = poses[i].id;
   r.variables_added = num_poses;
   r.factors_added = graph_.factors() - first_new_factor_;
-  if (plan.prepare_ordering && !r.reordered) r.ordering_prepared = prepareOrdering();
+  // (planUpdate never plans a preparation together with a reordering.)
+  LSLAM_DEBUG_ASSERT(!(plan.prepare_ordering && r.reordered));
+  if (plan.prepare_ordering) r.ordering_prepared = prepareOrdering();
   if (options_.solve_after_update) solve(false, &r);
   return Status::Ok;
 }

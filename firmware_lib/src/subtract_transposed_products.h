@@ -1,6 +1,6 @@
 #pragma once
-// The back-substitution's inner loop, shared by the depth-first solve and the solve in column
-// order (incremental_cholesky_layout.cpp). Internal to firmware_lib.
+// One column's step of the back-substitution, shared by the depth-first solve and the solve in
+// column order (incremental_cholesky_layout.cpp). Internal to firmware_lib.
 #include "lslam/eigen.h"
 #include "lslam/linear/index.h"
 
@@ -14,9 +14,9 @@ namespace detail {
 // instructions (the elementwise one costs ~7 % more per odometry step there), so it stays.
 template <int D>
 inline void subtractTransposedProducts(Eigen::Matrix<double, D, 1>& x,
-                                const Eigen::Matrix<double, D, D>* blocks, const Index* rows,
-                                Index size, const Eigen::Matrix<double, D, 1>* delta,
-                                const Index* variable_at) {
+                                       const Eigen::Matrix<double, D, D>* blocks, const Index* rows,
+                                       Index size, const Eigen::Matrix<double, D, 1>* delta,
+                                       const Index* variable_at) {
 #if defined(__SSE2__) || defined(__ARM_NEON)
   Eigen::Matrix<double, D, D> acc = Eigen::Matrix<double, D, D>::Zero();
   for (Index i = 1; i < size; ++i) {
@@ -28,6 +28,19 @@ inline void subtractTransposedProducts(Eigen::Matrix<double, D, 1>& x,
     x.noalias() -= blocks[i].transpose() * delta[variable_at[rows[i]]];
   }
 #endif
+}
+
+// Column k's part of L^T x = d: x(k) = L(k,k)^-T (d(k) - sum_{i >= 1} L(rows[i], k)^T x(rows[i])),
+// from the column's stored blocks (blocks[0] is L(k,k)^-1) and the solutions of its rows.
+template <int D>
+inline Eigen::Matrix<double, D, 1> solveColumn(const Eigen::Matrix<double, D, 1>& d,
+                                               const Eigen::Matrix<double, D, D>* blocks,
+                                               const Index* rows, Index size,
+                                               const Eigen::Matrix<double, D, 1>* delta,
+                                               const Index* variable_at) {
+  Eigen::Matrix<double, D, 1> x = d;
+  subtractTransposedProducts<D>(x, blocks, rows, size, delta, variable_at);
+  return blocks[0].transpose() * x;
 }
 
 }  // namespace detail
