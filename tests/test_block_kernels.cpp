@@ -1,7 +1,7 @@
 // The block kernels (lslam/linear/block_kernels.h): the portable forms against dense Eigen
 // references (the block product, and the reflections as explicit 2D x 2D matrices), and the AVX
-// forms (single and several source columns) bit for bit against the portable forms, on many
-// random cases from a fixed seed.
+// forms (single and several source columns, reflections in place and from a source) bit for bit
+// against the portable forms, on many random cases from a fixed seed.
 #include <doctest/doctest.h>
 
 #include <Eigen/Dense>
@@ -78,6 +78,38 @@ TEST_CASE("the portable block kernels match dense products and explicit reflecti
   checkPortableForms<6>(300);
 }
 
+TEST_CASE("the fused back-substitution step matches the dense transposed products") {
+  std::mt19937 rng(23);
+  std::uniform_int_distribution<int> size_of(1, 30);
+  for (int n = 0; n < 300; ++n) {
+    const Index size = size_of(rng);
+    std::vector<Eigen::Matrix3d> blocks(size);
+    for (auto& b : blocks) b = randomBlock<3>(rng);
+    std::vector<Eigen::Vector3d> delta(size + 5);
+    for (auto& y : delta) y = randomBlock<3>(rng).col(1);
+    std::vector<Index> rows(size);
+    std::vector<Index> variable_at(size + 5);
+    for (Index r = 0; r < size + 5; ++r) variable_at[r] = (r * 3 + 1) % (size + 5);
+    for (Index i = 0; i < size; ++i) rows[i] = i + n % 5;
+    Eigen::Vector3d expected = randomBlock<3>(rng).col(2);
+    Eigen::Vector3d x = expected;
+    for (Index i = 1; i < size; ++i)
+      expected -= blocks[i].transpose() * delta[variable_at[rows[i]]];
+    lslam::detail::subtractTransposedProductsFused(x, blocks.data(), rows.data(), size,
+                                                   delta.data(), variable_at.data());
+    CHECK((x - expected).cwiseAbs().maxCoeff() < 1e-12);
+    if (lslam::detail::cpuHasAvxFma()) {
+      Eigen::Vector3d x_avx = x;
+      Eigen::Vector3d x_fused = x;
+      lslam::detail::subtractTransposedProductsAvx(x_avx, blocks.data(), rows.data(), size,
+                                                   delta.data(), variable_at.data());
+      lslam::detail::subtractTransposedProductsFused(x_fused, blocks.data(), rows.data(), size,
+                                                     delta.data(), variable_at.data());
+      CHECK(std::equal(x_avx.data(), x_avx.data() + 3, x_fused.data()));
+    }
+  }
+}
+
 TEST_CASE("the AVX block kernels compute the portable forms' bits") {
   if (!lslam::detail::cpuHasAvxFma()) {
     MESSAGE("skipped: this CPU has no AVX2/FMA (the portable forms run everywhere)");
@@ -149,6 +181,26 @@ TEST_CASE("the AVX block kernels compute the portable forms' bits") {
     }
     lslam::detail::applyRowReflectionsAvx(u, beta, blocks.data(), rows.data(), size, w.data());
     for (std::size_t b = 0; b < blocks.size(); ++b) CHECK(sameBits(blocks[b], blocks_expected[b]));
+    for (std::size_t r = 0; r < w.size(); ++r) CHECK(sameBits(w[r], w_expected[r]));
+
+    // The same reflections read from elsewhere (the row update's merge): each row block comes
+    // from a source block, or is zero (fill), and is written to its own place.
+    std::vector<Eigen::Matrix3d> sources(rows.size());
+    for (auto& b : sources) b = randomBlock<3>(rng);
+    std::vector<Index> source(rows.size(), lslam::kNoIndex);
+    for (Index b = 1; b < size; ++b) {
+      if (keep(rng)) source[b] = static_cast<Index>((b * 7 + n) % size);
+    }
+    std::vector<Eigen::Matrix3d> staged(rows.size(), randomBlock<3>(rng));
+    std::vector<Eigen::Matrix3d> staged_expected = staged;
+    for (Index b = 1; b < size; ++b) {
+      staged_expected[b] =
+          source[b] == lslam::kNoIndex ? Eigen::Matrix3d::Zero() : sources[source[b]];
+      lslam::detail::applyRowReflections<3>(u, beta, staged_expected[b], w_expected[rows[b]]);
+    }
+    lslam::detail::applyRowReflectionsFromAvx(u, beta, sources.data(), source.data(), staged.data(),
+                                              rows.data(), size, w.data());
+    for (std::size_t b = 0; b < staged.size(); ++b) CHECK(sameBits(staged[b], staged_expected[b]));
     for (std::size_t r = 0; r < w.size(); ++r) CHECK(sameBits(w[r], w_expected[r]));
   }
 }

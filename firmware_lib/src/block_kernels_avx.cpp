@@ -48,30 +48,76 @@ bool cpuHasAvxFma() {
   return has;
 }
 
+namespace {
+
+// One row block of applyRowReflectionsAvx: [l w] H... from (l_in, w_in) to (l_out, w_out).
+__attribute__((target("avx2,fma"))) inline void reflectRowBlock(const Mat3& u, const Vec3& beta,
+                                                                const double* l_in, double* l_out,
+                                                                const double* w_in, double* w_out) {
+  __m256d l[3] = {loadColumn(l_in, 0), loadColumn(l_in, 1), loadColumn(l_in, 2)};
+  __m256d x[3] = {loadColumn(w_in, 0), loadColumn(w_in, 1), loadColumn(w_in, 2)};
+  for (int j = 0; j < 3; ++j) {
+    // Per row, as applyRowReflections: t = l_j + w0 u0 + w1 u1 + w2 u2 (fused, in that
+    // order), s = beta t, l_j -= s, w_c -= s u_c (fused).
+    const __m256d u0 = _mm256_broadcast_sd(&u(0, j));
+    const __m256d u1 = _mm256_broadcast_sd(&u(1, j));
+    const __m256d u2 = _mm256_broadcast_sd(&u(2, j));
+    const __m256d t =
+        _mm256_fmadd_pd(x[2], u2, _mm256_fmadd_pd(x[1], u1, _mm256_fmadd_pd(x[0], u0, l[j])));
+    const __m256d s = _mm256_mul_pd(_mm256_broadcast_sd(&beta(j)), t);
+    l[j] = _mm256_sub_pd(l[j], s);
+    x[0] = _mm256_fnmadd_pd(s, u0, x[0]);
+    x[1] = _mm256_fnmadd_pd(s, u1, x[1]);
+    x[2] = _mm256_fnmadd_pd(s, u2, x[2]);
+  }
+  storeColumns(l_out, l[0], l[1], l[2]);
+  storeColumns(w_out, x[0], x[1], x[2]);
+}
+
+}  // namespace
+
 __attribute__((target("avx2,fma"))) void applyRowReflectionsAvx(const Mat3& u, const Vec3& beta,
                                                                 Mat3* blocks, const Index* rows,
                                                                 Index size, Mat3* w) {
   for (Index b = 1; b < size; ++b) {
-    double* l_data = blocks[b].data();
     double* w_data = w[rows[b]].data();
-    __m256d l[3] = {loadColumn(l_data, 0), loadColumn(l_data, 1), loadColumn(l_data, 2)};
-    __m256d x[3] = {loadColumn(w_data, 0), loadColumn(w_data, 1), loadColumn(w_data, 2)};
-    for (int j = 0; j < 3; ++j) {
-      // Per row, as applyRowReflections: t = l_j + w0 u0 + w1 u1 + w2 u2 (fused, in that
-      // order), s = beta t, l_j -= s, w_c -= s u_c (fused).
-      const __m256d u0 = _mm256_broadcast_sd(&u(0, j));
-      const __m256d u1 = _mm256_broadcast_sd(&u(1, j));
-      const __m256d u2 = _mm256_broadcast_sd(&u(2, j));
-      const __m256d t =
-          _mm256_fmadd_pd(x[2], u2, _mm256_fmadd_pd(x[1], u1, _mm256_fmadd_pd(x[0], u0, l[j])));
-      const __m256d s = _mm256_mul_pd(_mm256_broadcast_sd(&beta(j)), t);
-      l[j] = _mm256_sub_pd(l[j], s);
-      x[0] = _mm256_fnmadd_pd(s, u0, x[0]);
-      x[1] = _mm256_fnmadd_pd(s, u1, x[1]);
-      x[2] = _mm256_fnmadd_pd(s, u2, x[2]);
-    }
-    storeColumns(l_data, l[0], l[1], l[2]);
-    storeColumns(w_data, x[0], x[1], x[2]);
+    reflectRowBlock(u, beta, blocks[b].data(), blocks[b].data(), w_data, w_data);
+  }
+}
+
+__attribute__((target("avx2,fma"))) void applyRowReflectionsFromAvx(const Mat3& u, const Vec3& beta,
+                                                                    const Mat3* source_blocks,
+                                                                    const Index* source,
+                                                                    Mat3* blocks, const Index* rows,
+                                                                    Index size, Mat3* w) {
+  static const Mat3 kZero = Mat3::Zero();
+  for (Index b = 1; b < size; ++b) {
+    // A select, not a branch: fill rows sit anywhere in the column.
+    const Mat3* l_in = source[b] != kNoIndex ? source_blocks + source[b] : &kZero;
+    double* w_data = w[rows[b]].data();
+    reflectRowBlock(u, beta, l_in->data(), blocks[b].data(), w_data, w_data);
+  }
+}
+
+__attribute__((target("avx2,fma"))) void subtractTransposedProductsAvx(Vec3& x, const Mat3* blocks,
+                                                                       const Index* rows,
+                                                                       Index size,
+                                                                       const Vec3* delta,
+                                                                       const Index* variable_at) {
+  __m256d acc[3] = {_mm256_setzero_pd(), _mm256_setzero_pd(), _mm256_setzero_pd()};
+  for (Index i = 1; i < size; ++i) {
+    const double* b = blocks[i].data();
+    const double* y_data = delta[variable_at[rows[i]]].data();
+    // Lane 3 zero: it meets the next column's first entry in loadColumn, a finite number.
+    const __m256d y = _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(y_data)),
+                                           _mm_load_sd(y_data + 2), 1);
+    for (int c = 0; c < 3; ++c) acc[c] = _mm256_fmadd_pd(loadColumn(b, c), y, acc[c]);
+  }
+  for (int c = 0; c < 3; ++c) {
+    const __m128d low = _mm256_castpd256_pd128(acc[c]);
+    const __m128d high = _mm256_extractf128_pd(acc[c], 1);
+    const __m128d sum = _mm_add_sd(_mm_add_sd(low, _mm_unpackhi_pd(low, low)), high);
+    x(c) -= _mm_cvtsd_f64(sum);
   }
 }
 
@@ -153,6 +199,14 @@ __attribute__((target("avx2,fma"))) void addBlockProductsOfColumnsAvx(
 
 // Never called (cpuHasAvxFma() is false here), but the calls behind it must link.
 void applyRowReflectionsAvx(const Mat3&, const Vec3&, Mat3*, const Index*, Index, Mat3*) {
+  LSLAM_ASSERT(false);
+}
+void applyRowReflectionsFromAvx(const Mat3&, const Vec3&, const Mat3*, const Index*, Mat3*,
+                                const Index*, Index, Mat3*) {
+  LSLAM_ASSERT(false);
+}
+void subtractTransposedProductsAvx(Vec3&, const Mat3*, const Index*, Index, const Vec3*,
+                                   const Index*) {
   LSLAM_ASSERT(false);
 }
 void addBlockProductsAvx(const Mat3*, const Index*, Index, Index, const Mat3&, const Index*,

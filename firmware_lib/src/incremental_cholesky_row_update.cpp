@@ -14,6 +14,7 @@
 // factor of [Lambda eta; eta^T .], so [d(k)^T b^T] Q = [d'(k)^T b'^T] updates d on the same path.
 #include <cmath>
 #include <cstring>
+#include <limits>
 
 #include "lower_triangular.h"
 #include "lslam/linear/block_kernels.h"
@@ -41,14 +42,34 @@ struct RowReflections {
   }
 };
 
-// Whether the ascending `rows` contain every one of the ascending `pattern`.
-bool rowsCover(const Index* rows, Index size, const Index* pattern, Index pattern_size) {
-  Index i = 0;
-  for (Index j = 0; j < pattern_size; ++j) {
-    while (i < size && rows[i] < pattern[j]) ++i;
-    if (i == size || rows[i] != pattern[j]) return false;
+// [L(r, k) W(r)] H_0 ... H_{D-1} for the rows r = rows[b], b >= 1, written to blocks[b] and w[r]:
+// L(r, k) is blocks[b] itself (source == nullptr) or source_blocks[source[b]] (zero where that is
+// kNoIndex).
+template <int D>
+void reflectRows(const RowReflections<D>& h, const Eigen::Matrix<double, D, D>* source_blocks,
+                 const Index* source, Eigen::Matrix<double, D, D>* blocks, const Index* rows,
+                 Index size, Eigen::Matrix<double, D, D>* w) {
+  if constexpr (D == 3) {
+    if (detail::cpuHasAvxFma()) {
+      if (source == nullptr) {
+        detail::applyRowReflectionsAvx(h.u, h.beta, blocks, rows, size, w);
+      } else {
+        detail::applyRowReflectionsFromAvx(h.u, h.beta, source_blocks, source, blocks, rows, size,
+                                           w);
+      }
+      return;
+    }
   }
-  return true;
+  for (Index b = 1; b < size; ++b) {
+    if (source != nullptr) {
+      if (source[b] != kNoIndex) {
+        blocks[b] = source_blocks[source[b]];
+      } else {
+        blocks[b].setZero();
+      }
+    }
+    h.apply(blocks[b], w[rows[b]]);
+  }
 }
 
 // Returns false if a diagonal entry of l' is not positive and finite (w and l together do not
@@ -147,7 +168,9 @@ Status IncrementalCholesky<D>::rowUpdateColumn(Index k, const Index* pattern, In
   // closure through the same top: the first one added the newest pose's row), is rotated where it
   // is: the staged copy is this update's own, and a rollback forgets it anyway. On city10000 that
   // is 44 % of the rotated blocks, which no longer go through a copy and a second staging.
-  const bool in_place = staged && rowsCover(old_rows + 1, old_size - 1, pattern, pattern_size);
+  // Either way W(r) of its rows the pattern does not hold is zeroed now (the merge below would
+  // zero the same rows), in the pass that checks the cover.
+  const bool in_place = staged && zeroUnreachedRows(old_rows, old_size, pattern, pattern_size);
   // Worst case every pattern row is fill.
   if (!in_place && pool_end_ + (old_size > 0 ? old_size : 1) + pattern_size > a_.max_blocks) {
     return Status::CapacityExhausted;
@@ -163,19 +186,16 @@ Status IncrementalCholesky<D>::rowUpdateColumn(Index k, const Index* pattern, In
   Block* blocks = a_.blocks + start;
   Index size = old_size;
   if (in_place) {
-    zeroUnreachedRows(rows, size, pattern, pattern_size);
+    reflectRows<D>(h, nullptr, nullptr, blocks, rows, size, a_.update_rows);
   } else {
-    size = stageMergedRows(k, old_rows, a_.blocks + old_start, old_size, pattern, pattern_size,
-                           rows, blocks);
+    // The merge decides the structure and where each block comes from; the reflections then read
+    // the old blocks and write the staged ones in one pass (a copy to the staging area first, then
+    // reflections there, took ~9 % of city10000's run in the copy alone). The merge's branching
+    // stays in a loop of its own: inside it, the reflections ran ~20 % slower.
+    Index* source = a_.row_list;
+    size = mergeRows(k, old_rows, old_size, pattern, pattern_size, !staged, rows, source);
+    reflectRows<D>(h, a_.blocks + old_start, source, blocks, rows, size, a_.update_rows);
   }
-  // The reflections in a loop of their own, after the merge: inside the merge's data-dependent
-  // branching loop the whole row update ran ~20 % slower (measured on city10000's dense top).
-  bool reflected = false;
-  if constexpr (D == 3) {
-    reflected = detail::cpuHasAvxFma();
-    if (reflected) detail::applyRowReflectionsAvx(h.u, h.beta, blocks, rows, size, a_.update_rows);
-  }
-  for (Index b = 1; !reflected && b < size; ++b) h.apply(blocks[b], a_.update_rows[rows[b]]);
   // The D reflections per row block: D (2 D^2 + 2 D) multiply-adds, ~2.7 block products.
   const std::int64_t products = 3 * static_cast<std::int64_t>(size - 1);
   // The right-hand side is one more row: [d(k)^T b^T].
@@ -198,51 +218,52 @@ Status IncrementalCholesky<D>::rowUpdateColumn(Index k, const Index* pattern, In
   return Status::Ok;
 }
 
-// An in-place column: W(r) is zero for the rows (from 1) the factor's rows do not reach.
+// W(r) = 0 for the rows r = rows[b], b >= 1, that the pattern (ascending) does not hold: the
+// factor's rows have not reached them. Returns whether the rows hold every pattern row.
 template <int D>
-void IncrementalCholesky<D>::zeroUnreachedRows(const Index* rows, Index size, const Index* pattern,
+bool IncrementalCholesky<D>::zeroUnreachedRows(const Index* rows, Index size, const Index* pattern,
                                                Index pattern_size) {
   Index j = 0;
+  bool covered = true;
   for (Index b = 1; b < size; ++b) {
-    if (j < pattern_size && pattern[j] == rows[b]) {
+    const Index r = rows[b];
+    for (; j < pattern_size && pattern[j] < r; ++j) covered = false;
+    if (j < pattern_size && pattern[j] == r) {
       ++j;
     } else {
-      a_.update_rows[rows[b]].setZero();
+      a_.update_rows[r].setZero();
     }
   }
+  return covered && j == pattern_size;
 }
 
-// Writes column k's structure, its old rows (from 1) merged with the pattern (both ascending),
-// and the row blocks [L(r,k) W(r)] to rows/blocks/update_rows: W(r) zero for a row the factor's
-// rows do not reach yet, L(r,k) zero for fill. Returns the column's size.
+// Writes column k's structure, its old rows (from 1) merged with the pattern (both ascending), to
+// rows, and for each row where its block L(r, k) comes from to source: the old block's place, or
+// kNoIndex for fill (zero). With zero_unreached, W(r) is set to zero for the old rows the pattern
+// does not hold, which the factor's rows have not reached yet (otherwise zeroUnreachedRows did).
+// Returns the column's size.
 template <int D>
-Index IncrementalCholesky<D>::stageMergedRows(Index k, const Index* old_rows,
-                                              const Block* old_blocks, Index old_size,
-                                              const Index* pattern, Index pattern_size, Index* rows,
-                                              Block* blocks) {
+Index IncrementalCholesky<D>::mergeRows(Index k, const Index* old_rows, Index old_size,
+                                        const Index* pattern, Index pattern_size,
+                                        bool zero_unreached, Index* rows, Index* source) {
   rows[0] = k;
   Index size = 1;
   Index i = 1;
-  Index j = 0;
-  while (i < old_size || j < pattern_size) {
-    const Index r_old = i < old_size ? old_rows[i] : kNoIndex;
-    const Index r_new = j < pattern_size ? pattern[j] : kNoIndex;
-    Index r;
-    Block& l_r = blocks[size];
-    if (r_new == kNoIndex || (r_old != kNoIndex && r_old < r_new)) {
-      r = r_old;
-      l_r = old_blocks[i++];
-      a_.update_rows[r].setZero();
-    } else if (r_old == kNoIndex || r_new < r_old) {
-      r = r_new;
-      ++j;
-      l_r.setZero();
-    } else {
-      r = r_old;
-      ++j;
-      l_r = old_blocks[i++];
+  // Old rows up to each pattern row in a tight loop: on a dense top the two lists are nearly the
+  // same, so this is mostly one comparison per row.
+  for (Index j = 0; j <= pattern_size; ++j) {
+    const Index bound = j < pattern_size ? pattern[j] : std::numeric_limits<Index>::max();
+    for (; i < old_size && old_rows[i] < bound; ++i, ++size) {
+      rows[size] = old_rows[i];
+      source[size] = i;
+      if (zero_unreached) a_.update_rows[old_rows[i]].setZero();
     }
-    rows[size++] = r;
+    if (j == pattern_size) break;
+    const bool old = i < old_size && old_rows[i] == bound;
+    rows[size] = bound;
+    source[size] = old ? i : kNoIndex;
+    i += old ? 1 : 0;
+    ++size;
   }
   return size;
 }
@@ -260,14 +281,14 @@ Status IncrementalCholesky<D>::finishRowUpdate() {
   return Status::Ok;
 }
 
-#define LSLAM_INSTANTIATE_ROW_UPDATE(D)                                                            \
-  template Status IncrementalCholesky<D>::addFactorRows(const Index*, const Block*, Index,         \
-                                                        const Vector&);                            \
-  template Status IncrementalCholesky<D>::rowUpdateColumn(Index, const Index*, Index, Vector&);    \
-  template void IncrementalCholesky<D>::zeroUnreachedRows(const Index*, Index, const Index*,       \
-                                                          Index);                                  \
-  template Index IncrementalCholesky<D>::stageMergedRows(Index, const Index*, const Block*, Index, \
-                                                         const Index*, Index, Index*, Block*);     \
+#define LSLAM_INSTANTIATE_ROW_UPDATE(D)                                                         \
+  template Status IncrementalCholesky<D>::addFactorRows(const Index*, const Block*, Index,      \
+                                                        const Vector&);                         \
+  template Status IncrementalCholesky<D>::rowUpdateColumn(Index, const Index*, Index, Vector&); \
+  template bool IncrementalCholesky<D>::zeroUnreachedRows(const Index*, Index, const Index*,    \
+                                                          Index);                               \
+  template Index IncrementalCholesky<D>::mergeRows(Index, const Index*, Index, const Index*,    \
+                                                   Index, bool, Index*, Index*);                \
   template Status IncrementalCholesky<D>::finishRowUpdate();
 LSLAM_INSTANTIATE_ROW_UPDATE(2)
 LSLAM_INSTANTIATE_ROW_UPDATE(3)

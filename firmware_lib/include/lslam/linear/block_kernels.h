@@ -58,6 +58,23 @@ inline void applyRowReflections(const Eigen::Matrix<double, D, D>& u,
   }
 }
 
+// x(c) -= sum_{i >= 1} (blocks[i]^T y_i)(c) with y_i = delta[variable_at[rows[i]]]: the
+// back-substitution's inner loop, in the form of the x86-64 host. Per entry (r, c) the products
+// blocks[i](r, c) y_i(r) are summed over i ascending (fused, from zero), and x(c) takes the three
+// sums of column c as x(c) - ((s_0 + s_1) + s_2): a SIMD lane per row, reduced once per column.
+inline void subtractTransposedProductsFused(Vec3& x, const Mat3* blocks, const Index* rows,
+                                            Index size, const Vec3* delta,
+                                            const Index* variable_at) {
+  Mat3 acc = Mat3::Zero();
+  for (Index i = 1; i < size; ++i) {
+    const Vec3& y = delta[variable_at[rows[i]]];
+    for (int c = 0; c < 3; ++c) {
+      for (int r = 0; r < 3; ++r) acc(r, c) = std::fma(blocks[i](r, c), y(r), acc(r, c));
+    }
+  }
+  for (int c = 0; c < 3; ++c) x(c) -= (acc(0, c) + acc(1, c)) + acc(2, c);
+}
+
 // Whether this CPU runs the AVX2/FMA forms below (never off x86-64: known at compile time there,
 // so the checks cost the target nothing).
 #if defined(__x86_64__)
@@ -71,6 +88,16 @@ constexpr bool cpuHasAvxFma() {
 // applyRowReflections on the row blocks x_l = blocks[b], x_w = w[rows[b]] for b in [1, size).
 void applyRowReflectionsAvx(const Mat3& u, const Vec3& beta, Mat3* blocks, const Index* rows,
                             Index size, Mat3* w);
+// The same with x_l read from source_blocks[source[b]] (a zero block where source[b] is
+// kNoIndex) and written to blocks[b]: the row update's merge into the staging area and its
+// reflections in one pass.
+void applyRowReflectionsFromAvx(const Mat3& u, const Vec3& beta, const Mat3* source_blocks,
+                                const Index* source, Mat3* blocks, const Index* rows, Index size,
+                                Mat3* w);
+
+// subtractTransposedProductsFused, the same bits.
+void subtractTransposedProductsAvx(Vec3& x, const Mat3* blocks, const Index* rows, Index size,
+                                   const Vec3* delta, const Index* variable_at);
 
 // addBlockProduct(target[p], blocks[b], s) for b in [first, size), with p the place of rows[b]
 // among target_rows (ascending, holding every rows[b]; target_rows[0] is below them all).

@@ -77,7 +77,7 @@ struct CholeskyArrays {
   Index* affected = nullptr;
   Index* child_head = nullptr;
   Index* child_next = nullptr;
-  Index* row_list = nullptr;
+  Index* row_list = nullptr;  // also: the row update's block sources (see mergeRows)
   Index* scratch = nullptr;
   // The reordered update (see factorizeReordered): old position -> reordered position, the affected
   // columns in their fresh order, each affected column's rank in the affected set, and the cliques
@@ -221,9 +221,9 @@ class IncrementalCholesky {
   Index packColumns(Index* columns, Index num, Index* start, const Index* count, Index write);
   [[nodiscard]] Status rowUpdateColumn(Index k, const Index* pattern, Index pattern_size,
                                        Vector& rhs);
-  void zeroUnreachedRows(const Index* rows, Index size, const Index* pattern, Index pattern_size);
-  Index stageMergedRows(Index k, const Index* old_rows, const Block* old_blocks, Index old_size,
-                        const Index* pattern, Index pattern_size, Index* rows, Block* blocks);
+  bool zeroUnreachedRows(const Index* rows, Index size, const Index* pattern, Index pattern_size);
+  Index mergeRows(Index k, const Index* old_rows, Index old_size, const Index* pattern,
+                  Index pattern_size, bool zero_unreached, Index* rows, Index* source);
 
   CholeskyArrays<D> a_;
   Index n_ = 0;
