@@ -38,6 +38,13 @@ __attribute__((target("avx2,fma"))) inline __m256d addProductColumn(__m256d b0, 
   return _mm256_fmadd_pd(b2, _mm256_broadcast_sd(&s(2, c)), t);
 }
 
+// (lane 0 + lane 1) + lane 2.
+__attribute__((target("avx2,fma"))) inline double sumOfLanes012(__m256d v) {
+  const __m128d low = _mm256_castpd256_pd128(v);
+  const __m128d high = _mm256_extractf128_pd(v, 1);
+  return _mm_cvtsd_f64(_mm_add_sd(_mm_add_sd(low, _mm_unpackhi_pd(low, low)), high));
+}
+
 }  // namespace
 
 bool cpuHasAvxFma() {
@@ -104,21 +111,23 @@ __attribute__((target("avx2,fma"))) void subtractTransposedProductsAvx(Vec3& x, 
                                                                        Index size,
                                                                        const Vec3* delta,
                                                                        const Index* variable_at) {
-  __m256d acc[3] = {_mm256_setzero_pd(), _mm256_setzero_pd(), _mm256_setzero_pd()};
+  // Three named accumulators, not an array: GCC kept an array on the stack around the loop.
+  __m256d acc0 = _mm256_setzero_pd();
+  __m256d acc1 = _mm256_setzero_pd();
+  __m256d acc2 = _mm256_setzero_pd();
   for (Index i = 1; i < size; ++i) {
     const double* b = blocks[i].data();
     const double* y_data = delta[variable_at[rows[i]]].data();
     // Lane 3 zero: it meets the next column's first entry in loadColumn, a finite number.
     const __m256d y = _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(y_data)),
                                            _mm_load_sd(y_data + 2), 1);
-    for (int c = 0; c < 3; ++c) acc[c] = _mm256_fmadd_pd(loadColumn(b, c), y, acc[c]);
+    acc0 = _mm256_fmadd_pd(loadColumn(b, 0), y, acc0);
+    acc1 = _mm256_fmadd_pd(loadColumn(b, 1), y, acc1);
+    acc2 = _mm256_fmadd_pd(loadColumn(b, 2), y, acc2);
   }
-  for (int c = 0; c < 3; ++c) {
-    const __m128d low = _mm256_castpd256_pd128(acc[c]);
-    const __m128d high = _mm256_extractf128_pd(acc[c], 1);
-    const __m128d sum = _mm_add_sd(_mm_add_sd(low, _mm_unpackhi_pd(low, low)), high);
-    x(c) -= _mm_cvtsd_f64(sum);
-  }
+  x(0) -= sumOfLanes012(acc0);
+  x(1) -= sumOfLanes012(acc1);
+  x(2) -= sumOfLanes012(acc2);
 }
 
 __attribute__((target("avx2,fma"))) void addBlockProductsAvx(const Mat3* blocks, const Index* rows,
