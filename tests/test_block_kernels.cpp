@@ -85,26 +85,31 @@ TEST_CASE("the fused back-substitution step matches the dense transposed product
     const Index size = size_of(rng);
     std::vector<Eigen::Matrix3d> blocks(size);
     for (auto& b : blocks) b = randomBlock<3>(rng);
-    std::vector<Eigen::Vector3d> delta(size + 5);
-    for (auto& y : delta) y = randomBlock<3>(rng).col(1);
+    // The solutions by position, kSolutionStride doubles each (the fourth zero, as the solve keeps
+    // it), the rows spread over them out of order.
+    constexpr Index kStride = lslam::detail::kSolutionStride<3>;
+    const Index positions = size + 5;
+    std::vector<double> solution(static_cast<std::size_t>(kStride * positions), 0.0);
+    std::vector<Eigen::Vector3d> y(positions);
+    for (Index p = 0; p < positions; ++p) {
+      y[p] = randomBlock<3>(rng).col(1);
+      for (int r = 0; r < 3; ++r) solution[kStride * p + r] = y[p](r);
+    }
     std::vector<Index> rows(size);
-    std::vector<Index> variable_at(size + 5);
-    for (Index r = 0; r < size + 5; ++r) variable_at[r] = (r * 3 + 1) % (size + 5);
-    for (Index i = 0; i < size; ++i) rows[i] = i + n % 5;
+    for (Index i = 0; i < size; ++i) rows[i] = (i * 3 + 1 + n % 5) % positions;
     Eigen::Vector3d expected = randomBlock<3>(rng).col(2);
     Eigen::Vector3d x = expected;
-    for (Index i = 1; i < size; ++i)
-      expected -= blocks[i].transpose() * delta[variable_at[rows[i]]];
+    for (Index i = 1; i < size; ++i) expected -= blocks[i].transpose() * y[rows[i]];
     lslam::detail::subtractTransposedProductsFused(x, blocks.data(), rows.data(), size,
-                                                   delta.data(), variable_at.data());
+                                                   solution.data());
     CHECK((x - expected).cwiseAbs().maxCoeff() < 1e-12);
     if (lslam::detail::cpuHasAvxFma()) {
       Eigen::Vector3d x_avx = x;
       Eigen::Vector3d x_fused = x;
       lslam::detail::subtractTransposedProductsAvx(x_avx, blocks.data(), rows.data(), size,
-                                                   delta.data(), variable_at.data());
+                                                   solution.data());
       lslam::detail::subtractTransposedProductsFused(x_fused, blocks.data(), rows.data(), size,
-                                                     delta.data(), variable_at.data());
+                                                     solution.data());
       CHECK(std::equal(x_avx.data(), x_avx.data() + 3, x_fused.data()));
     }
   }

@@ -45,18 +45,6 @@ __attribute__((target("avx2,fma"))) inline double sumOfLanes012(__m256d v) {
   return _mm_cvtsd_f64(_mm_add_sd(_mm_add_sd(low, _mm_unpackhi_pd(low, low)), high));
 }
 
-}  // namespace
-
-bool cpuHasAvxFma() {
-  static const bool has = [] {
-    __builtin_cpu_init();
-    return __builtin_cpu_supports("avx2") != 0 && __builtin_cpu_supports("fma") != 0;
-  }();
-  return has;
-}
-
-namespace {
-
 // One row block of applyRowReflectionsAvx: [l w] H... from (l_in, w_in) to (l_out, w_out).
 __attribute__((target("avx2,fma"))) inline void reflectRowBlock(const Mat3& u, const Vec3& beta,
                                                                 const double* l_in, double* l_out,
@@ -109,18 +97,16 @@ __attribute__((target("avx2,fma"))) void applyRowReflectionsFromAvx(const Mat3& 
 __attribute__((target("avx2,fma"))) void subtractTransposedProductsAvx(Vec3& x, const Mat3* blocks,
                                                                        const Index* rows,
                                                                        Index size,
-                                                                       const Vec3* delta,
-                                                                       const Index* variable_at) {
+                                                                       const double* solution) {
   // Three named accumulators, not an array: GCC kept an array on the stack around the loop.
   __m256d acc0 = _mm256_setzero_pd();
   __m256d acc1 = _mm256_setzero_pd();
   __m256d acc2 = _mm256_setzero_pd();
   for (Index i = 1; i < size; ++i) {
     const double* b = blocks[i].data();
-    const double* y_data = delta[variable_at[rows[i]]].data();
-    // Lane 3 zero: it meets the next column's first entry in loadColumn, a finite number.
-    const __m256d y = _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(y_data)),
-                                           _mm_load_sd(y_data + 2), 1);
+    // One load: the entry's fourth lane is zero, and meets the next column's first entry in
+    // loadColumn, a finite number.
+    const __m256d y = _mm256_loadu_pd(solution + kSolutionStride<3> * rows[i]);
     acc0 = _mm256_fmadd_pd(loadColumn(b, 0), y, acc0);
     acc1 = _mm256_fmadd_pd(loadColumn(b, 1), y, acc1);
     acc2 = _mm256_fmadd_pd(loadColumn(b, 2), y, acc2);
@@ -214,8 +200,7 @@ void applyRowReflectionsFromAvx(const Mat3&, const Vec3&, const Mat3*, const Ind
                                 const Index*, Index, Mat3*) {
   LSLAM_ASSERT(false);
 }
-void subtractTransposedProductsAvx(Vec3&, const Mat3*, const Index*, Index, const Vec3*,
-                                   const Index*) {
+void subtractTransposedProductsAvx(Vec3&, const Mat3*, const Index*, Index, const double*) {
   LSLAM_ASSERT(false);
 }
 void addBlockProductsAvx(const Mat3*, const Index*, Index, Index, const Mat3&, const Index*,

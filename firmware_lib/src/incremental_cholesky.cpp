@@ -42,6 +42,9 @@ IncrementalCholesky<D>::IncrementalCholesky(const CholeskyArrays<D>& arrays) : a
   std::memset(a_.queued, 0, sizeof(std::uint32_t) * static_cast<std::size_t>(a_.max_columns));
   std::memset(a_.mark, 0, sizeof(std::uint32_t) * static_cast<std::size_t>(a_.max_columns));
   std::memset(a_.needs_solve, 0, static_cast<std::size_t>(a_.max_columns));
+  std::memset(
+      a_.solution, 0,
+      sizeof(double) * detail::kSolutionStride<D> * static_cast<std::size_t>(a_.max_columns));
   const Index root = a_.max_columns;
   a_.first_child[root] = kNoIndex;
   a_.next_sibling[root] = kNoIndex;
@@ -524,10 +527,11 @@ Index IncrementalCholesky<D>::backSubstitute(Vector* delta, const Index* variabl
     const Index* rows = columnRows(k);
     const Block* blocks = columnBlocks(k);
     const Index size = a_.count[k];
-    Vector& out = delta[variable_at[k]];
-    const Vector updated = detail::solveColumn<D>(a_.d[k], blocks, rows, size, delta, variable_at);
+    Eigen::Map<Vector> out(solutionOf(k));
+    const Vector updated = detail::solveColumn<D>(a_.d[k], blocks, rows, size, a_.solution);
     const bool moved = (updated - out).cwiseAbs().maxCoeff() > tolerance;
     out = updated;
+    delta[variable_at[k]] = updated;
     a_.needs_solve[k] = 0;
     visited[solved++] = k;
     if (moved) mark[k] = changed;

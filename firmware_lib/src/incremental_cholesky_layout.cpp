@@ -68,21 +68,34 @@ template <int D>
 Index IncrementalCholesky<D>::solveInColumnOrder(Vector* delta, const Index* variable_at,
                                                  Index* visited) {
   for (Index k = n_ - 1; k >= 0; --k) {
-    delta[variable_at[k]] = detail::solveColumn<D>(a_.d[k], columnBlocks(k), columnRows(k),
-                                                   a_.count[k], delta, variable_at);
+    const Vector x =
+        detail::solveColumn<D>(a_.d[k], columnBlocks(k), columnRows(k), a_.count[k], a_.solution);
+    Eigen::Map<Vector>(solutionOf(k)) = x;
+    delta[variable_at[k]] = x;
     a_.needs_solve[k] = 0;
     visited[n_ - 1 - k] = k;
   }
   return n_;
 }
 
+template <int D>
+void IncrementalCholesky<D>::loadSolution(const Vector* delta, const Index* variable_at) {
+  for (Index k = 0; k < n_; ++k) Eigen::Map<Vector>(solutionOf(k)) = delta[variable_at[k]];
+}
+
 template void IncrementalCholesky<2>::layoutForSolve();
+template void IncrementalCholesky<2>::loadSolution(const IncrementalCholesky<2>::Vector*,
+                                                   const Index*);
 template Index IncrementalCholesky<2>::solveInColumnOrder(IncrementalCholesky<2>::Vector*,
                                                           const Index*, Index*);
 template void IncrementalCholesky<3>::layoutForSolve();
+template void IncrementalCholesky<3>::loadSolution(const IncrementalCholesky<3>::Vector*,
+                                                   const Index*);
 template Index IncrementalCholesky<3>::solveInColumnOrder(IncrementalCholesky<3>::Vector*,
                                                           const Index*, Index*);
 template void IncrementalCholesky<6>::layoutForSolve();
+template void IncrementalCholesky<6>::loadSolution(const IncrementalCholesky<6>::Vector*,
+                                                   const Index*);
 template Index IncrementalCholesky<6>::solveInColumnOrder(IncrementalCholesky<6>::Vector*,
                                                           const Index*, Index*);
 

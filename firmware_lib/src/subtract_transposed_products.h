@@ -8,10 +8,12 @@
 namespace lslam {
 namespace detail {
 
-// x -= sum_{i >= 1} blocks[i]^T y(rows[i]), y(r) = delta[variable_at[r]]: the back-substitution's
-// inner loop. On a SIMD host the products are summed elementwise and reduced to a vector once per
-// column; a transposed block times a vector per block reduces across lanes every time (~10 % of a
-// full solve on city10000). For D = 3 on x86-64 that is the AVX2/FMA kernel (a block column per
+// x -= sum_{i >= 1} blocks[i]^T y(rows[i]), y(r) the solution of row r (solution + S r, S =
+// kSolutionStride<D>): the back-substitution's inner loop. The solution is kept by column position,
+// so a row reads its y with one index (through the variables' order it took two dependent loads).
+// On a SIMD host the products are summed elementwise and reduced to a vector once per column; a
+// transposed block times a vector per block reduces across lanes every time (~10 % of a full
+// solve on city10000). For D = 3 on x86-64 that is the AVX2/FMA kernel (a block column per
 // register, ~3x fewer instructions than Eigen's SSE2 form, which leaves a lane of every column
 // over), or its std::fma twin with the same bits. On a scalar FPU (the Cortex-M) the direct form is
 // the fewer instructions (the elementwise one costs ~7 % more per odometry step there), so it
@@ -19,14 +21,15 @@ namespace detail {
 template <int D>
 inline void subtractTransposedProducts(Eigen::Matrix<double, D, 1>& x,
                                        const Eigen::Matrix<double, D, D>* blocks, const Index* rows,
-                                       Index size, const Eigen::Matrix<double, D, 1>* delta,
-                                       const Index* variable_at) {
+                                       Index size, const double* solution) {
+  using ConstSolution = Eigen::Map<const Eigen::Matrix<double, D, 1>>;
+  constexpr Index kStride = kSolutionStride<D>;
 #if defined(__x86_64__)
   if constexpr (D == 3) {
     if (cpuHasAvxFma()) {
-      subtractTransposedProductsAvx(x, blocks, rows, size, delta, variable_at);
+      subtractTransposedProductsAvx(x, blocks, rows, size, solution);
     } else {
-      subtractTransposedProductsFused(x, blocks, rows, size, delta, variable_at);
+      subtractTransposedProductsFused(x, blocks, rows, size, solution);
     }
     return;
   }
@@ -34,12 +37,13 @@ inline void subtractTransposedProducts(Eigen::Matrix<double, D, 1>& x,
 #if defined(__SSE2__) || defined(__ARM_NEON)
   Eigen::Matrix<double, D, D> acc = Eigen::Matrix<double, D, D>::Zero();
   for (Index i = 1; i < size; ++i) {
-    acc += blocks[i].cwiseProduct(delta[variable_at[rows[i]]].template replicate<1, D>());
+    acc += blocks[i].cwiseProduct(
+        ConstSolution(solution + kStride * rows[i]).template replicate<1, D>());
   }
   x -= acc.colwise().sum().transpose();
 #else
   for (Index i = 1; i < size; ++i) {
-    x.noalias() -= blocks[i].transpose() * delta[variable_at[rows[i]]];
+    x.noalias() -= blocks[i].transpose() * ConstSolution(solution + kStride * rows[i]);
   }
 #endif
 }
@@ -50,10 +54,9 @@ template <int D>
 inline Eigen::Matrix<double, D, 1> solveColumn(const Eigen::Matrix<double, D, 1>& d,
                                                const Eigen::Matrix<double, D, D>* blocks,
                                                const Index* rows, Index size,
-                                               const Eigen::Matrix<double, D, 1>* delta,
-                                               const Index* variable_at) {
+                                               const double* solution) {
   Eigen::Matrix<double, D, 1> x = d;
-  subtractTransposedProducts<D>(x, blocks, rows, size, delta, variable_at);
+  subtractTransposedProducts<D>(x, blocks, rows, size, solution);
   return blocks[0].transpose() * x;
 }
 

@@ -58,18 +58,24 @@ inline void applyRowReflections(const Eigen::Matrix<double, D, D>& u,
   }
 }
 
-// x(c) -= sum_{i >= 1} (blocks[i]^T y_i)(c) with y_i = delta[variable_at[rows[i]]]: the
-// back-substitution's inner loop, in the form of the x86-64 host. Per entry (r, c) the products
+// How many doubles each column's entry of the solution takes in the back-substitution's array of
+// solutions by column position: D, or 4 for D = 3 so that an entry is one 32-byte SIMD load with a
+// zero fourth lane (and its address a shift of the row).
+template <int D>
+inline constexpr int kSolutionStride = D == 3 ? 4 : D;
+
+// x(c) -= sum_{i >= 1} (blocks[i]^T y_i)(c) with y_i the solution of row rows[i] (entries
+// solution[4 rows[i] + r], r < 3): the back-substitution's inner loop, in the form of the x86-64
+// host. Per entry (r, c) the products
 // blocks[i](r, c) y_i(r) are summed over i ascending (fused, from zero), and x(c) takes the three
 // sums of column c as x(c) - ((s_0 + s_1) + s_2): a SIMD lane per row, reduced once per column.
 inline void subtractTransposedProductsFused(Vec3& x, const Mat3* blocks, const Index* rows,
-                                            Index size, const Vec3* delta,
-                                            const Index* variable_at) {
+                                            Index size, const double* solution) {
   Mat3 acc = Mat3::Zero();
   for (Index i = 1; i < size; ++i) {
-    const Vec3& y = delta[variable_at[rows[i]]];
+    const double* y = solution + kSolutionStride<3> * rows[i];
     for (int c = 0; c < 3; ++c) {
-      for (int r = 0; r < 3; ++r) acc(r, c) = std::fma(blocks[i](r, c), y(r), acc(r, c));
+      for (int r = 0; r < 3; ++r) acc(r, c) = std::fma(blocks[i](r, c), y[r], acc(r, c));
     }
   }
   for (int c = 0; c < 3; ++c) x(c) -= (acc(0, c) + acc(1, c)) + acc(2, c);
@@ -78,7 +84,13 @@ inline void subtractTransposedProductsFused(Vec3& x, const Mat3* blocks, const I
 // Whether this CPU runs the AVX2/FMA forms below (never off x86-64: known at compile time there,
 // so the checks cost the target nothing).
 #if defined(__x86_64__)
-bool cpuHasAvxFma();
+// Inline, as a load and a test of the feature bits that libgcc's constructor fills before any
+// ordinary static constructor runs: the solve asks once per column, and a call into a function
+// with a guarded static cost ~2 % of city10000's instructions (hoisting the call out of the solve
+// instead changed GCC's inlining on the Cortex-M, where the check is dead code).
+inline bool cpuHasAvxFma() {
+  return __builtin_cpu_supports("avx2") != 0 && __builtin_cpu_supports("fma") != 0;
+}
 #else
 constexpr bool cpuHasAvxFma() {
   return false;
@@ -97,7 +109,7 @@ void applyRowReflectionsFromAvx(const Mat3& u, const Vec3& beta, const Mat3* sou
 
 // subtractTransposedProductsFused, the same bits.
 void subtractTransposedProductsAvx(Vec3& x, const Mat3* blocks, const Index* rows, Index size,
-                                   const Vec3* delta, const Index* variable_at);
+                                   const double* solution);
 
 // addBlockProduct(target[p], blocks[b], s) for b in [first, size), with p the place of rows[b]
 // among target_rows (ascending, holding every rows[b]; target_rows[0] is below them all).

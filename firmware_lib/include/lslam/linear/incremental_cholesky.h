@@ -39,6 +39,7 @@
 #include <cstdint>
 
 #include "lslam/eigen.h"
+#include "lslam/linear/block_kernels.h"
 #include "lslam/linear/colamd_ordering.h"
 #include "lslam/linear/index.h"
 #include "lslam/linear/information_source.h"
@@ -89,6 +90,9 @@ struct CholeskyArrays {
   Index* clique_entry = nullptr;  // max_blocks
   // The row update (see addFactorRows): the update rows' block at each column position.
   Block* update_rows = nullptr;  // max_columns
+  // The back-substitution's solution by column position, detail::kSolutionStride<D> doubles per
+  // column (padding zero): max_columns * detail::kSolutionStride<D>.
+  double* solution = nullptr;
 };
 
 // What one update did, for diagnostics.
@@ -173,8 +177,19 @@ class IncrementalCholesky {
   // (full == false): a subtree is entered only when its parent's x, or any x its column refers
   // to, changed by more than `tolerance` (max-norm), or when it holds columns factorized since the
   // last solve. Writes the visited columns to `visited` (capacity columns()); returns their count.
+  // The solve reads and compares with its own copy of x by column position (one index per row
+  // block instead of two dependent loads), which it writes to delta as it goes; whoever changes
+  // delta in between says so with setSolution() or loadSolution().
   Index backSubstitute(Vector* delta, const Index* variable_at, double tolerance, bool full,
                        Index* visited);
+  // x(k) := x, for a committed column (a variable relinearized or added: its delta restarts).
+  void setSolution(Index k, const Vector& x) {
+    LSLAM_ASSERT(k >= 0 && k < n_);
+    Eigen::Map<Vector>(solutionOf(k)) = x;
+  }
+  // x(k) := delta[variable_at[k]] for every committed column: after a reordering (a full one or
+  // of the affected top), which moves the variables' positions.
+  void loadSolution(const Vector* delta, const Index* variable_at);
 
   // Read access to a committed column: rows[0] == k, blocks[0] == L(k,k)^-1.
   Index columnSize(Index k) const { return a_.count[k]; }
@@ -182,6 +197,10 @@ class IncrementalCholesky {
   const Block* columnBlocks(Index k) const { return a_.blocks + a_.start[k]; }
   Index parent(Index k) const { return a_.count[k] > 1 ? a_.rows[a_.start[k] + 1] : kNoIndex; }
   const Vector& rhs(Index k) const { return a_.d[k]; }
+  // The solve's copy of x(k) (see backSubstitute).
+  Vector solutionAt(Index k) const {
+    return Eigen::Map<const Vector>(a_.solution + detail::kSolutionStride<D> * k);
+  }
 
  private:
   void queue(Index column);
@@ -218,6 +237,7 @@ class IncrementalCholesky {
   void settleStagedColumns();
   void layoutForSolve();
   Index solveInColumnOrder(Vector* delta, const Index* variable_at, Index* visited);
+  double* solutionOf(Index k) { return a_.solution + detail::kSolutionStride<D> * k; }
   Index packColumns(Index* columns, Index num, Index* start, const Index* count, Index write);
   [[nodiscard]] Status rowUpdateColumn(Index k, const Index* pattern, Index pattern_size,
                                        Vector& rhs);
@@ -287,6 +307,7 @@ class StaticCholeskyStorage {
     a.clique_start = clique_start_;
     a.clique_entry = clique_entry_;
     a.update_rows = update_rows_;
+    a.solution = solution_;
     return a;
   }
 
@@ -320,6 +341,7 @@ class StaticCholeskyStorage {
   Index clique_start_[MaxColumns + 1];
   Index clique_entry_[MaxBlocks];
   Block update_rows_[MaxColumns];
+  alignas(32) double solution_[MaxColumns * detail::kSolutionStride<D>];
 };
 
 extern template class IncrementalCholesky<2>;

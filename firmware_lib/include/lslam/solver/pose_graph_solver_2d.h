@@ -72,6 +72,8 @@ class PoseGraphSolver2D {
   // The current estimate of a pose (linearization point moved by the solution).
   [[nodiscard]] Status estimate(VariableId id, SE2* pose) const;
   SE2 estimateAt(Index variable) const;
+  // The solution's step of a variable from its linearization point (estimateAt() retracts it).
+  const Vec3& deltaAt(Index variable) const { return a_.delta[variable]; }
   VariableId idAt(Index variable) const { return a_.id_of[variable]; }
   // Sum of e^T Omega e over all factors at the current estimate (priors included).
   double chi2() const;
