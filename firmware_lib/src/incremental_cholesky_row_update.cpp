@@ -226,6 +226,10 @@ bool IncrementalCholesky<D>::zeroUnreachedRows(const Index* rows, Index size, co
   bool covered = true;
   for (Index b = 1; b < size; ++b) {
     const Index r = rows[b];
+    if (j < pattern_size && pattern[j] == r) {  // the common case on a dense top, tested first
+      ++j;
+      continue;
+    }
     for (; j < pattern_size && pattern[j] < r; ++j) covered = false;
     if (j < pattern_size && pattern[j] == r) {
       ++j;
@@ -248,21 +252,36 @@ Index IncrementalCholesky<D>::mergeRows(Index k, const Index* old_rows, Index ol
   rows[0] = k;
   Index size = 1;
   Index i = 1;
-  // Old rows up to each pattern row in a tight loop: on a dense top the two lists are nearly the
-  // same, so this is mostly one comparison per row.
-  for (Index j = 0; j <= pattern_size; ++j) {
-    const Index bound = j < pattern_size ? pattern[j] : std::numeric_limits<Index>::max();
-    for (; i < old_size && old_rows[i] < bound; ++i, ++size) {
-      rows[size] = old_rows[i];
-      source[size] = i;
-      if (zero_unreached) a_.update_rows[old_rows[i]].setZero();
+  Index j = 0;
+  // One step per row of the result, the common case first: on a dense top the two lists are
+  // nearly the same, so most steps take a row both hold (a predictable branch; a loop over the
+  // pattern with an inner loop over old rows took ~37 instructions per row on city10000).
+  while (i < old_size && j < pattern_size) {
+    const Index old_row = old_rows[i];
+    const Index pattern_row = pattern[j];
+    if (old_row == pattern_row) {
+      rows[size] = old_row;
+      source[size] = i++;
+      ++j;
+    } else if (old_row < pattern_row) {
+      rows[size] = old_row;
+      source[size] = i++;
+      if (zero_unreached) a_.update_rows[old_row].setZero();
+    } else {
+      rows[size] = pattern_row;
+      source[size] = kNoIndex;
+      ++j;
     }
-    if (j == pattern_size) break;
-    const bool old = i < old_size && old_rows[i] == bound;
-    rows[size] = bound;
-    source[size] = old ? i : kNoIndex;
-    i += old ? 1 : 0;
     ++size;
+  }
+  for (; i < old_size; ++i, ++size) {
+    rows[size] = old_rows[i];
+    source[size] = i;
+    if (zero_unreached) a_.update_rows[old_rows[i]].setZero();
+  }
+  for (; j < pattern_size; ++j, ++size) {
+    rows[size] = pattern[j];
+    source[size] = kNoIndex;
   }
   return size;
 }
