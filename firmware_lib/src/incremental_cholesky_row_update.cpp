@@ -13,7 +13,6 @@
 // The right-hand side rides along as one more row: L d = eta is the last row of the Cholesky
 // factor of [Lambda eta; eta^T .], so [d(k)^T b^T] Q = [d'(k)^T b'^T] updates d on the same path.
 #include <cmath>
-#include <limits>
 
 #include "lower_triangular.h"
 #include "lslam/linear/block_kernels.h"
