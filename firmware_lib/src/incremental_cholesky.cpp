@@ -527,7 +527,7 @@ Index IncrementalCholesky<D>::backSubstitute(Vector* delta, const Index* variabl
     const Index* rows = columnRows(k);
     const Block* blocks = columnBlocks(k);
     const Index size = a_.count[k];
-    Eigen::Map<Vector> out(solutionOf(k));
+    Eigen::Map<Vector> out = solutionEntry(k);
     const Vector updated = detail::solveColumn<D>(a_.d[k], blocks, rows, size, a_.solution);
     const bool moved = (updated - out).cwiseAbs().maxCoeff() > tolerance;
     out = updated;

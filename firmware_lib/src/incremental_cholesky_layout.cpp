@@ -70,7 +70,7 @@ Index IncrementalCholesky<D>::solveInColumnOrder(Vector* delta, const Index* var
   for (Index k = n_ - 1; k >= 0; --k) {
     const Vector x =
         detail::solveColumn<D>(a_.d[k], columnBlocks(k), columnRows(k), a_.count[k], a_.solution);
-    Eigen::Map<Vector>(solutionOf(k)) = x;
+    solutionEntry(k) = x;
     delta[variable_at[k]] = x;
     a_.needs_solve[k] = 0;
     visited[n_ - 1 - k] = k;
@@ -80,7 +80,7 @@ Index IncrementalCholesky<D>::solveInColumnOrder(Vector* delta, const Index* var
 
 template <int D>
 void IncrementalCholesky<D>::loadSolution(const Vector* delta, const Index* variable_at) {
-  for (Index k = 0; k < n_; ++k) Eigen::Map<Vector>(solutionOf(k)) = delta[variable_at[k]];
+  for (Index k = 0; k < n_; ++k) solutionEntry(k) = delta[variable_at[k]];
 }
 
 template void IncrementalCholesky<2>::layoutForSolve();

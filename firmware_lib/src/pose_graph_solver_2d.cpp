@@ -397,18 +397,17 @@ Status PoseGraphSolver2D::refactor(Index new_poses, Index relinearized, bool all
   if (reorder || top_reordered) ordering_prepared_ = false;
   graph_.commit();
   active_ = buffer;
-  // The relinearized and the added variables restart from delta = 0; the factor's copy of the
-  // solution (by position) follows, wholly after a reordering moved the variables.
-  for (Index i = 0; i < relinearized; ++i) a_.delta[a_.marked[i]].setZero();
-  for (Index v = n; v < n + new_poses; ++v) a_.delta[v].setZero();
-  if (reorder || top_reordered) {
-    cholesky_.loadSolution(a_.delta, a_.variable_at[active_]);
-  } else {
-    for (Index i = 0; i < relinearized; ++i) {
-      cholesky_.setSolution(position_of[a_.marked[i]], Vec3::Zero());
-    }
-    for (Index v = n; v < n + new_poses; ++v) cholesky_.setSolution(position_of[v], Vec3::Zero());
-  }
+  // The relinearized and the added variables restart from delta = 0. The factor's copy of the
+  // solution (by position) follows them, or is reloaded whole after a reordering moved the
+  // variables.
+  const bool positions_moved = reorder || top_reordered;
+  const auto restart = [&](Index v) {
+    a_.delta[v].setZero();
+    if (!positions_moved) cholesky_.setSolution(position_of[v], Vec3::Zero());
+  };
+  for (Index i = 0; i < relinearized; ++i) restart(a_.marked[i]);
+  for (Index v = n; v < n + new_poses; ++v) restart(v);
+  if (positions_moved) cholesky_.loadSolution(a_.delta, a_.variable_at[active_]);
   const FactorizationStats& stats = cholesky_.lastStats();
   noteOrderingWork(reorder, stats.block_products);
   if (full) {

@@ -185,7 +185,7 @@ class IncrementalCholesky {
   // x(k) := x, for a committed column (a variable relinearized or added: its delta restarts).
   void setSolution(Index k, const Vector& x) {
     LSLAM_ASSERT(k >= 0 && k < n_);
-    Eigen::Map<Vector>(solutionOf(k)) = x;
+    solutionEntry(k) = x;
   }
   // x(k) := delta[variable_at[k]] for every committed column: after a reordering (a full one or
   // of the affected top), which moves the variables' positions.
@@ -198,9 +198,7 @@ class IncrementalCholesky {
   Index parent(Index k) const { return a_.count[k] > 1 ? a_.rows[a_.start[k] + 1] : kNoIndex; }
   const Vector& rhs(Index k) const { return a_.d[k]; }
   // The solve's copy of x(k) (see backSubstitute).
-  Vector solutionAt(Index k) const {
-    return Eigen::Map<const Vector>(a_.solution + detail::kSolutionStride<D> * k);
-  }
+  Vector solutionAt(Index k) const { return solutionEntry(k); }
 
  private:
   void queue(Index column);
@@ -237,7 +235,13 @@ class IncrementalCholesky {
   void settleStagedColumns();
   void layoutForSolve();
   Index solveInColumnOrder(Vector* delta, const Index* variable_at, Index* visited);
-  double* solutionOf(Index k) { return a_.solution + detail::kSolutionStride<D> * k; }
+  // Column k's entry of the solution by position (the first D of its kSolutionStride doubles).
+  Eigen::Map<Vector> solutionEntry(Index k) {
+    return Eigen::Map<Vector>(a_.solution + detail::kSolutionStride<D> * k);
+  }
+  Eigen::Map<const Vector> solutionEntry(Index k) const {
+    return Eigen::Map<const Vector>(a_.solution + detail::kSolutionStride<D> * k);
+  }
   Index packColumns(Index* columns, Index num, Index* start, const Index* count, Index write);
   [[nodiscard]] Status rowUpdateColumn(Index k, const Index* pattern, Index pattern_size,
                                        Vector& rhs);
