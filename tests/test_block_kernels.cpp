@@ -1,7 +1,8 @@
 // The block kernels (lslam/linear/block_kernels.h): the portable forms against dense Eigen
-// references (the block product, and the reflections as explicit 2D x 2D matrices), and the AVX
-// forms (single and several source columns, reflections in place and from a source) bit for bit
-// against the portable forms, on many random cases from a fixed seed.
+// references (the block product, and the reflections of one and of two factors' rows as explicit
+// matrices), and the AVX forms (single and several source columns, reflections of one and of two
+// factors, in place and from a source) bit for bit against the portable forms, on many random
+// cases from a fixed seed.
 #include <doctest/doctest.h>
 
 #include <Eigen/Dense>
@@ -25,21 +26,46 @@ Eigen::Matrix<double, D, D> randomBlock(std::mt19937& rng) {
   return m;
 }
 
-// H_0 ... H_{D-1} as one dense 2D x 2D matrix.
-template <int D>
-Eigen::Matrix<double, 2 * D, 2 * D> denseReflections(const Eigen::Matrix<double, D, D>& u,
-                                                     const Eigen::Matrix<double, D, 1>& beta) {
-  using Square = Eigen::Matrix<double, 2 * D, 2 * D>;
+// H_0 ... H_{D-1} as one dense (M + 1) D square matrix, v_j = e_j + [0; u[0].col(j); ..].
+template <int D, int M>
+Eigen::Matrix<double, (M + 1) * D, (M + 1) * D> denseReflections(
+    const Eigen::Matrix<double, D, D>* u, const Eigen::Matrix<double, D, 1>& beta) {
+  using Square = Eigen::Matrix<double, (M + 1) * D, (M + 1) * D>;
   Square q = Square::Identity();
   for (int j = 0; j < D; ++j) {
-    Eigen::Matrix<double, 2 * D, 1> v;
-    for (int i = 0; i < D; ++i) {
-      v(i) = i == j ? 1.0 : 0.0;
-      v(D + i) = u(i, j);
-    }
+    Eigen::Matrix<double, (M + 1) * D, 1> v = Eigen::Matrix<double, (M + 1) * D, 1>::Zero();
+    v(j) = 1.0;
+    for (int m = 0; m < M; ++m) v.template segment<D>(D * (m + 1)) = u[m].col(j);
     q = (q * (Square::Identity() - beta(j) * v * v.transpose())).eval();
   }
   return q;
+}
+
+// The reflections of M factors' rows against the explicit matrix (relative to the result's size:
+// random u and beta make no orthogonal Q, so entries grow).
+template <int D, int M>
+void checkReflections(std::mt19937& rng) {
+  Eigen::Matrix<double, D, D> u[M];
+  for (auto& block : u) block = randomBlock<D>(rng);
+  const Eigen::Matrix<double, D, 1> beta = randomBlock<D>(rng).col(0).cwiseAbs();
+  auto x_l = randomBlock<D>(rng);
+  Eigen::Matrix<double, D, D> x_w[M];
+  Eigen::Matrix<double, D, D>* x_w_of[M];
+  Eigen::Matrix<double, D, (M + 1) * D> x;
+  x.template leftCols<D>() = x_l;
+  for (int m = 0; m < M; ++m) {
+    x_w[m] = randomBlock<D>(rng);
+    x_w_of[m] = &x_w[m];
+    x.template middleCols<D>(D * (m + 1)) = x_w[m];
+  }
+  const Eigen::Matrix<double, D, (M + 1)* D> reflected = x * denseReflections<D, M>(u, beta);
+  const double tolerance = 1e-13 * (1.0 + reflected.cwiseAbs().maxCoeff());
+  lslam::detail::applyRowReflections<D, M>(u, beta, x_l, x_w_of);
+  CHECK((x_l - reflected.template leftCols<D>()).cwiseAbs().maxCoeff() < tolerance);
+  for (int m = 0; m < M; ++m) {
+    CHECK((x_w[m] - reflected.template middleCols<D>(D * (m + 1))).cwiseAbs().maxCoeff() <
+          tolerance);
+  }
 }
 
 template <int D>
@@ -52,17 +78,8 @@ void checkPortableForms(int cases) {
     const Eigen::Matrix<double, D, D> expected = t + b * s;
     lslam::detail::addBlockProduct<D>(t, b, s);
     CHECK((t - expected).cwiseAbs().maxCoeff() < 1e-12);
-
-    const auto u = randomBlock<D>(rng);
-    const Eigen::Matrix<double, D, 1> beta = randomBlock<D>(rng).col(0).cwiseAbs();
-    auto x_l = randomBlock<D>(rng);
-    auto x_w = randomBlock<D>(rng);
-    Eigen::Matrix<double, D, 2 * D> x;
-    x << x_l, x_w;
-    const Eigen::Matrix<double, D, 2 * D> reflected = x * denseReflections<D>(u, beta);
-    lslam::detail::applyRowReflections<D>(u, beta, x_l, x_w);
-    CHECK((x_l - reflected.template leftCols<D>()).cwiseAbs().maxCoeff() < 1e-10);
-    CHECK((x_w - reflected.template rightCols<D>()).cwiseAbs().maxCoeff() < 1e-10);
+    checkReflections<D, 1>(rng);
+    checkReflections<D, 2>(rng);
   }
 }
 
@@ -114,6 +131,69 @@ TEST_CASE("the fused back-substitution step matches the dense transposed product
     }
   }
 }
+
+namespace {
+
+// The AVX reflections of M factors' rows against the portable form, bit for bit: on a column's row
+// blocks in place, with W kept per row as in the row update, and read from elsewhere (the row
+// update's merge: each row block comes from a source block, or is zero for fill).
+template <int M>
+void checkAvxReflections(std::mt19937& rng, const std::vector<Index>& rows,
+                         std::vector<Eigen::Matrix3d> blocks, std::size_t num_rows, int n) {
+  std::bernoulli_distribution keep(0.6);
+  const Index size = static_cast<Index>(rows.size());
+  Eigen::Matrix3d u[M];
+  for (auto& block : u) block = randomBlock<3>(rng);
+  const Eigen::Vector3d beta = randomBlock<3>(rng).col(0).cwiseAbs();
+  std::vector<Eigen::Matrix3d> w[M];
+  for (auto& array : w) {
+    array.resize(num_rows);
+    for (auto& x : array) x = randomBlock<3>(rng);
+  }
+  auto reflect_expected = [&](std::vector<Eigen::Matrix3d>& l, std::vector<Eigen::Matrix3d>* x) {
+    for (Index b = 1; b < size; ++b) {
+      Eigen::Matrix3d* x_of[M];
+      for (int m = 0; m < M; ++m) x_of[m] = &x[m][rows[b]];
+      lslam::detail::applyRowReflections<3, M>(u, beta, l[b], x_of);
+    }
+  };
+  auto arrays = [](std::vector<Eigen::Matrix3d>* x, Eigen::Matrix3d** of) {
+    for (int m = 0; m < M; ++m) of[m] = x[m].data();
+  };
+  std::vector<Eigen::Matrix3d> blocks_expected = blocks;
+  std::vector<Eigen::Matrix3d> w_expected[M];
+  for (int m = 0; m < M; ++m) w_expected[m] = w[m];
+  reflect_expected(blocks_expected, w_expected);
+  Eigen::Matrix3d* w_of[M];
+  arrays(w, w_of);
+  lslam::detail::applyRowReflectionsAvx<M>(u, beta, blocks.data(), rows.data(), size, w_of);
+  for (std::size_t b = 0; b < blocks.size(); ++b) CHECK(sameBits(blocks[b], blocks_expected[b]));
+  for (int m = 0; m < M; ++m) {
+    for (std::size_t r = 0; r < num_rows; ++r) CHECK(sameBits(w[m][r], w_expected[m][r]));
+  }
+
+  std::vector<Eigen::Matrix3d> sources(rows.size());
+  for (auto& b : sources) b = randomBlock<3>(rng);
+  std::vector<Index> source(rows.size(), lslam::kNoIndex);
+  for (Index b = 1; b < size; ++b) {
+    if (keep(rng)) source[b] = static_cast<Index>((b * 7 + n) % size);
+  }
+  std::vector<Eigen::Matrix3d> staged(rows.size(), randomBlock<3>(rng));
+  std::vector<Eigen::Matrix3d> staged_expected = staged;
+  for (Index b = 1; b < size; ++b) {
+    staged_expected[b] =
+        source[b] == lslam::kNoIndex ? Eigen::Matrix3d::Zero() : sources[source[b]];
+  }
+  reflect_expected(staged_expected, w_expected);
+  lslam::detail::applyRowReflectionsFromAvx<M>(u, beta, sources.data(), source.data(),
+                                               staged.data(), rows.data(), size, w_of);
+  for (std::size_t b = 0; b < staged.size(); ++b) CHECK(sameBits(staged[b], staged_expected[b]));
+  for (int m = 0; m < M; ++m) {
+    for (std::size_t r = 0; r < num_rows; ++r) CHECK(sameBits(w[m][r], w_expected[m][r]));
+  }
+}
+
+}  // namespace
 
 TEST_CASE("the AVX block kernels compute the portable forms' bits") {
   if (!lslam::detail::cpuHasAvxFma()) {
@@ -174,38 +254,7 @@ TEST_CASE("the AVX block kernels compute the portable forms' bits") {
                                                 first, size, target_rows.data(), target.data());
     for (std::size_t p = 0; p < target.size(); ++p) CHECK(sameBits(target[p], multi_expected[p]));
 
-    // The reflections on the column's row blocks, with W kept per row as in the row update.
-    const Eigen::Matrix3d u = randomBlock<3>(rng);
-    const Eigen::Vector3d beta = randomBlock<3>(rng).col(0).cwiseAbs();
-    std::vector<Eigen::Matrix3d> w(target_rows.size());
-    for (auto& x : w) x = randomBlock<3>(rng);
-    std::vector<Eigen::Matrix3d> blocks_expected = blocks;
-    std::vector<Eigen::Matrix3d> w_expected = w;
-    for (Index b = 1; b < size; ++b) {
-      lslam::detail::applyRowReflections<3>(u, beta, blocks_expected[b], w_expected[rows[b]]);
-    }
-    lslam::detail::applyRowReflectionsAvx(u, beta, blocks.data(), rows.data(), size, w.data());
-    for (std::size_t b = 0; b < blocks.size(); ++b) CHECK(sameBits(blocks[b], blocks_expected[b]));
-    for (std::size_t r = 0; r < w.size(); ++r) CHECK(sameBits(w[r], w_expected[r]));
-
-    // The same reflections read from elsewhere (the row update's merge): each row block comes
-    // from a source block, or is zero (fill), and is written to its own place.
-    std::vector<Eigen::Matrix3d> sources(rows.size());
-    for (auto& b : sources) b = randomBlock<3>(rng);
-    std::vector<Index> source(rows.size(), lslam::kNoIndex);
-    for (Index b = 1; b < size; ++b) {
-      if (keep(rng)) source[b] = static_cast<Index>((b * 7 + n) % size);
-    }
-    std::vector<Eigen::Matrix3d> staged(rows.size(), randomBlock<3>(rng));
-    std::vector<Eigen::Matrix3d> staged_expected = staged;
-    for (Index b = 1; b < size; ++b) {
-      staged_expected[b] =
-          source[b] == lslam::kNoIndex ? Eigen::Matrix3d::Zero() : sources[source[b]];
-      lslam::detail::applyRowReflections<3>(u, beta, staged_expected[b], w_expected[rows[b]]);
-    }
-    lslam::detail::applyRowReflectionsFromAvx(u, beta, sources.data(), source.data(), staged.data(),
-                                              rows.data(), size, w.data());
-    for (std::size_t b = 0; b < staged.size(); ++b) CHECK(sameBits(staged[b], staged_expected[b]));
-    for (std::size_t r = 0; r < w.size(); ++r) CHECK(sameBits(w[r], w_expected[r]));
+    checkAvxReflections<1>(rng, rows, blocks, target_rows.size(), n);
+    checkAvxReflections<2>(rng, rows, blocks, target_rows.size(), n);
   }
 }

@@ -549,7 +549,7 @@ lslam::Status addRandomRows(lslam::IncrementalCholesky<3>& chol, DenseSource& so
   const Index positions[2] = {position_of[a], position_of[b]};
   const Block rows[2] = {source.last_j.leftCols<3>().transpose(),
                          source.last_j.rightCols<3>().transpose()};
-  return chol.addFactorRows(positions, rows, 2, source.last_e);
+  return chol.addFactorRows({positions, rows, 2, source.last_e});
 }
 
 lslam::Status addRows(Harness& h, Index a, Index b, std::mt19937& rng) {
@@ -690,12 +690,16 @@ TEST_CASE("row update: an added column without rows and a full pool are reported
 
 namespace {
 
-// Row updates alone for block size D: random factors on random pairs (a prior row on every added
-// column), accumulated densely as A^T A and A^T b; the factor must reproduce both.
+// Row updates alone for block size D: random factors on random columns, accumulated densely as
+// A^T A and A^T b; the factor must reproduce both. With `pairs`, factors also go two at a time
+// (addFactorRows(first, second)) in every arrangement of their paths: meeting at their first
+// column, meeting higher up, through columns an earlier factor of the same update staged, and in
+// different trees of a forest that never meet (a step sometimes adds an unconnected column).
 template <int D>
-void checkRowUpdatesForBlockSize(unsigned seed) {
+void checkRowUpdatesForBlockSize(unsigned seed, bool pairs) {
   using BlockD = Eigen::Matrix<double, D, D>;
   using VectorD = Eigen::Matrix<double, D, 1>;
+  using FactorRows = typename lslam::IncrementalCholesky<D>::FactorRows;
   constexpr Index kColumns = 40;
   auto storage = std::make_unique<lslam::StaticCholeskyStorage<D, kColumns, 4000>>();
   lslam::IncrementalCholesky<D> chol(storage->arrays());
@@ -707,34 +711,69 @@ void checkRowUpdatesForBlockSize(unsigned seed) {
       for (int c = 0; c < D; ++c) b(r, c) = u(rng) + (r == c ? 2.0 : 0.0);
     return b;
   };
-  auto random_vector = [&] {
-    VectorD v;
-    for (int r = 0; r < D; ++r) v(r) = u(rng);
-    return v;
-  };
   Eigen::MatrixXd lambda = Eigen::MatrixXd::Zero(D * kColumns, D * kColumns);
   Eigen::VectorXd eta = Eigen::VectorXd::Zero(D * kColumns);
-  auto add_rows = [&](const std::vector<Index>& at) {
+  // A random factor on the columns `at`, added to the dense reference; its rows live in `held`.
+  struct Held {
+    std::vector<Index> at;
     std::vector<BlockD> rows_t;
-    for (std::size_t i = 0; i < at.size(); ++i) rows_t.push_back(random_block());
-    const VectorD b = random_vector();
-    for (std::size_t i = 0; i < at.size(); ++i) {
-      for (std::size_t j = 0; j < at.size(); ++j) {
-        lambda.block<D, D>(D * at[i], D * at[j]) += rows_t[i] * rows_t[j].transpose();
-      }
-      eta.segment<D>(D * at[i]) += rows_t[i] * b;
-    }
-    return chol.addFactorRows(at.data(), rows_t.data(), static_cast<Index>(at.size()), b);
+    FactorRows rows;
   };
+  std::vector<std::unique_ptr<Held>> held;
+  auto factor = [&](std::vector<Index> at) -> const FactorRows& {
+    held.push_back(std::make_unique<Held>());
+    Held& h = *held.back();
+    h.at = std::move(at);
+    for (std::size_t i = 0; i < h.at.size(); ++i) h.rows_t.push_back(random_block());
+    VectorD b;
+    for (int r = 0; r < D; ++r) b(r) = u(rng);
+    for (std::size_t i = 0; i < h.at.size(); ++i) {
+      for (std::size_t j = 0; j < h.at.size(); ++j) {
+        lambda.template block<D, D>(D * h.at[i], D * h.at[j]) +=
+            h.rows_t[i] * h.rows_t[j].transpose();
+      }
+      eta.template segment<D>(D * h.at[i]) += h.rows_t[i] * b;
+    }
+    h.rows = {h.at.data(), h.rows_t.data(), static_cast<Index>(h.at.size()), b};
+    return h.rows;
+  };
+  auto older = [&](Index v) { return std::uniform_int_distribution<Index>(0, v - 1)(rng); };
+  auto columns = [](Index a, Index b) {  // a factor on a and b, or on a alone if they are one
+    return a == b ? std::vector<Index>{a} : std::vector<Index>{a, b};
+  };
+  std::uniform_int_distribution<int> arrangement(0, 4);
+  int pairs_added = 0;
   for (Index v = 0; v < kColumns; ++v) {
     chol.beginUpdate(1, false);
-    REQUIRE(add_rows({v}) == lslam::Status::Ok);
-    if (v > 0)
-      REQUIRE(add_rows({v, std::uniform_int_distribution<Index>(0, v - 1)(rng)}) ==
-              lslam::Status::Ok);
+    const int kind = v < 2 ? 0 : (pairs ? arrangement(rng) : 1);
+    if (kind == 0) {  // a prior on the new column only
+      REQUIRE(chol.addFactorRows(factor({v})) == lslam::Status::Ok);
+      if (v > 0) REQUIRE(chol.addFactorRows(factor({v, older(v)})) == lslam::Status::Ok);
+    } else if (kind == 1) {  // the new column's factors one by one
+      REQUIRE(chol.addFactorRows(factor({v})) == lslam::Status::Ok);
+      REQUIRE(chol.addFactorRows(factor({v, older(v)})) == lslam::Status::Ok);
+    } else if (kind == 2) {  // a pair through the new column, staged already by its prior
+      REQUIRE(chol.addFactorRows(factor({v})) == lslam::Status::Ok);
+      const FactorRows& first = factor({older(v), v});
+      REQUIRE(chol.addFactorRows(first, factor({older(v), v})) == lslam::Status::Ok);
+      ++pairs_added;
+    } else if (kind == 3) {  // a pair that starts at the same column
+      const Index a = older(v);
+      const FactorRows& first = factor({v, a});
+      REQUIRE(chol.addFactorRows(first, factor(columns(a, older(v)))) == lslam::Status::Ok);
+      REQUIRE(chol.addFactorRows(factor({v})) == lslam::Status::Ok);
+      ++pairs_added;
+    } else {  // an unconnected new column, and a pair on older columns (perhaps other trees)
+      const FactorRows& first = factor({v});
+      REQUIRE(chol.addFactorRows(first, factor({older(v)})) == lslam::Status::Ok);
+      const FactorRows& second = factor(columns(older(v), older(v)));
+      REQUIRE(chol.addFactorRows(second, factor(columns(older(v), older(v)))) == lslam::Status::Ok);
+      pairs_added += 2;
+    }
     REQUIRE(chol.finishRowUpdate() == lslam::Status::Ok);
     chol.commit();
     chol.compact();  // the replaced columns are garbage; the pool is sized for the live ones
+    held.clear();
     const Index n = v + 1;
     const Eigen::MatrixXd l = denseFactor(chol);
     Eigen::VectorXd d(D * n);
@@ -744,6 +783,7 @@ void checkRowUpdatesForBlockSize(unsigned seed) {
     CHECK((l * d - eta.head(D * n)).cwiseAbs().maxCoeff() <=
           1e-12 * (l.cwiseAbs().maxCoeff() * d.cwiseAbs().maxCoeff() + eta.cwiseAbs().maxCoeff()));
   }
+  if (pairs) CHECK(pairs_added > 10);
 }
 
 }  // namespace
@@ -751,7 +791,16 @@ void checkRowUpdatesForBlockSize(unsigned seed) {
 TEST_CASE("row updates for the other block sizes (2: points, 6: SE(3)) reproduce A^T A, A^T b") {
   for (unsigned seed = 900; seed < 905; ++seed) {
     CAPTURE(seed);
-    checkRowUpdatesForBlockSize<2>(seed);
-    checkRowUpdatesForBlockSize<6>(seed);
+    checkRowUpdatesForBlockSize<2>(seed, false);
+    checkRowUpdatesForBlockSize<6>(seed, false);
+  }
+}
+
+TEST_CASE("two factors' rows rotated together reproduce A^T A, A^T b (block sizes 2, 3, 6)") {
+  for (unsigned seed = 910; seed < 930; ++seed) {
+    CAPTURE(seed);
+    checkRowUpdatesForBlockSize<2>(seed, true);
+    checkRowUpdatesForBlockSize<3>(seed, true);
+    checkRowUpdatesForBlockSize<6>(seed, true);
   }
 }

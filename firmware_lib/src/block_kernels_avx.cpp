@@ -13,7 +13,7 @@ namespace {
 
 // A column of a column-major 3 x 3 block in lanes 0-2 (lane 3: whatever follows it in memory,
 // or zero for the last column, which must not be read past the block).
-__attribute__((target("avx2,fma"))) inline __m256d loadColumn(const double* block, int c) {
+LSLAM_TARGET_AVX_FMA inline __m256d loadColumn(const double* block, int c) {
   if (c < 2) return _mm256_loadu_pd(block + 3 * c);
   return _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(block + 6)),
                               _mm_load_sd(block + 8), 1);
@@ -21,8 +21,7 @@ __attribute__((target("avx2,fma"))) inline __m256d loadColumn(const double* bloc
 
 // Stores the three columns back. Columns 0 and 1 are stored whole, in order, so that lane 3 of
 // each (the next column's row 0) is overwritten by the next store; column 2 stops at the block.
-__attribute__((target("avx2,fma"))) inline void storeColumns(double* block, __m256d c0, __m256d c1,
-                                                             __m256d c2) {
+LSLAM_TARGET_AVX_FMA inline void storeColumns(double* block, __m256d c0, __m256d c1, __m256d c2) {
   _mm256_storeu_pd(block, c0);
   _mm256_storeu_pd(block + 3, c1);
   _mm_storeu_pd(block + 6, _mm256_castpd256_pd128(c2));
@@ -30,74 +29,102 @@ __attribute__((target("avx2,fma"))) inline void storeColumns(double* block, __m2
 }
 
 // Column c of t + b s, each product fused in order k = 0, 1, 2 (as addBlockProduct).
-__attribute__((target("avx2,fma"))) inline __m256d addProductColumn(__m256d b0, __m256d b1,
-                                                                    __m256d b2, const Mat3& s,
-                                                                    int c, __m256d t) {
+LSLAM_TARGET_AVX_FMA inline __m256d addProductColumn(__m256d b0, __m256d b1, __m256d b2,
+                                                     const Mat3& s, int c, __m256d t) {
   t = _mm256_fmadd_pd(b0, _mm256_broadcast_sd(&s(0, c)), t);
   t = _mm256_fmadd_pd(b1, _mm256_broadcast_sd(&s(1, c)), t);
   return _mm256_fmadd_pd(b2, _mm256_broadcast_sd(&s(2, c)), t);
 }
 
 // (lane 0 + lane 1) + lane 2.
-__attribute__((target("avx2,fma"))) inline double sumOfLanes012(__m256d v) {
+LSLAM_TARGET_AVX_FMA inline double sumOfLanes012(__m256d v) {
   const __m128d low = _mm256_castpd256_pd128(v);
   const __m128d high = _mm256_extractf128_pd(v, 1);
   return _mm_cvtsd_f64(_mm_add_sd(_mm_add_sd(low, _mm_unpackhi_pd(low, low)), high));
 }
 
-// One row block of applyRowReflectionsAvx: [l w] H... from (l_in, w_in) to (l_out, w_out).
-__attribute__((target("avx2,fma"))) inline void reflectRowBlock(const Mat3& u, const Vec3& beta,
-                                                                const double* l_in, double* l_out,
-                                                                const double* w_in, double* w_out) {
+// The reflections' coefficients where a row block's loop reads them: per reflection j the u
+// entries of factor 0 (c = 0, 1, 2), of factor 1, .., then beta(j). A local copy, because the
+// W and L stores may alias u for all the compiler knows: read through u, GCC kept each entry's
+// address in a stack slot and reloaded it per block (~1 instruction per multiply-add).
+template <int M>
+struct ReflectionCoefficients {
+  double of[3][3 * M + 1];
+
+  ReflectionCoefficients(const Mat3* u, const Vec3& beta) {
+    for (int j = 0; j < 3; ++j) {
+      for (int m = 0; m < M; ++m) {
+        for (int c = 0; c < 3; ++c) of[j][3 * m + c] = u[m](c, j);
+      }
+      of[j][3 * M] = beta(j);
+    }
+  }
+};
+
+// One row block of applyRowReflectionsAvx: [l w[0] .. w[M-1]] H... from l_in to l_out, w in place.
+template <int M>
+LSLAM_TARGET_AVX_FMA inline void reflectRowBlock(const ReflectionCoefficients<M>& h,
+                                                 const double* l_in, double* l_out,
+                                                 double* const* w) {
   __m256d l[3] = {loadColumn(l_in, 0), loadColumn(l_in, 1), loadColumn(l_in, 2)};
-  __m256d x[3] = {loadColumn(w_in, 0), loadColumn(w_in, 1), loadColumn(w_in, 2)};
+  __m256d x[M][3];
+  for (int m = 0; m < M; ++m) {
+    for (int c = 0; c < 3; ++c) x[m][c] = loadColumn(w[m], c);
+  }
   for (int j = 0; j < 3; ++j) {
-    // Per row, as applyRowReflections: t = l_j + w0 u0 + w1 u1 + w2 u2 (fused, in that
-    // order), s = beta t, l_j -= s, w_c -= s u_c (fused).
-    const __m256d u0 = _mm256_broadcast_sd(&u(0, j));
-    const __m256d u1 = _mm256_broadcast_sd(&u(1, j));
-    const __m256d u2 = _mm256_broadcast_sd(&u(2, j));
-    const __m256d t =
-        _mm256_fmadd_pd(x[2], u2, _mm256_fmadd_pd(x[1], u1, _mm256_fmadd_pd(x[0], u0, l[j])));
-    const __m256d s = _mm256_mul_pd(_mm256_broadcast_sd(&beta(j)), t);
+    // Per row, as applyRowReflections: t = l_j + w0 u0 + w1 u1 + w2 u2 (fused, in that order,
+    // factor by factor), s = beta t, l_j -= s, w_c -= s u_c (fused).
+    const double* coefficient = h.of[j];
+    __m256d t = l[j];
+    for (int m = 0; m < M; ++m) {
+      for (int c = 0; c < 3; ++c) {
+        t = _mm256_fmadd_pd(x[m][c], _mm256_set1_pd(coefficient[3 * m + c]), t);
+      }
+    }
+    const __m256d s = _mm256_mul_pd(_mm256_set1_pd(coefficient[3 * M]), t);
     l[j] = _mm256_sub_pd(l[j], s);
-    x[0] = _mm256_fnmadd_pd(s, u0, x[0]);
-    x[1] = _mm256_fnmadd_pd(s, u1, x[1]);
-    x[2] = _mm256_fnmadd_pd(s, u2, x[2]);
+    for (int m = 0; m < M; ++m) {
+      for (int c = 0; c < 3; ++c) {
+        x[m][c] = _mm256_fnmadd_pd(s, _mm256_set1_pd(coefficient[3 * m + c]), x[m][c]);
+      }
+    }
   }
   storeColumns(l_out, l[0], l[1], l[2]);
-  storeColumns(w_out, x[0], x[1], x[2]);
+  for (int m = 0; m < M; ++m) storeColumns(w[m], x[m][0], x[m][1], x[m][2]);
 }
 
 }  // namespace
 
-__attribute__((target("avx2,fma"))) void applyRowReflectionsAvx(const Mat3& u, const Vec3& beta,
-                                                                Mat3* blocks, const Index* rows,
-                                                                Index size, Mat3* w) {
+template <int M>
+LSLAM_TARGET_AVX_FMA void applyRowReflectionsAvx(const Mat3* u, const Vec3& beta, Mat3* blocks,
+                                                 const Index* rows, Index size, Mat3* const* w) {
+  const ReflectionCoefficients<M> h(u, beta);
   for (Index b = 1; b < size; ++b) {
-    double* w_data = w[rows[b]].data();
-    reflectRowBlock(u, beta, blocks[b].data(), blocks[b].data(), w_data, w_data);
+    double* w_data[M];
+    for (int m = 0; m < M; ++m) w_data[m] = w[m][rows[b]].data();
+    reflectRowBlock<M>(h, blocks[b].data(), blocks[b].data(), w_data);
   }
 }
 
-__attribute__((target("avx2,fma"))) void applyRowReflectionsFromAvx(const Mat3& u, const Vec3& beta,
-                                                                    const Mat3* source_blocks,
-                                                                    const Index* source,
-                                                                    Mat3* blocks, const Index* rows,
-                                                                    Index size, Mat3* w) {
+template <int M>
+LSLAM_TARGET_AVX_FMA void applyRowReflectionsFromAvx(const Mat3* u, const Vec3& beta,
+                                                     const Mat3* source_blocks, const Index* source,
+                                                     Mat3* blocks, const Index* rows, Index size,
+                                                     Mat3* const* w) {
   static const Mat3 kZero = Mat3::Zero();
+  const ReflectionCoefficients<M> h(u, beta);
   for (Index b = 1; b < size; ++b) {
     // A select, not a branch: fill rows sit anywhere in the column.
     const Mat3* l_in = source[b] != kNoIndex ? source_blocks + source[b] : &kZero;
-    double* w_data = w[rows[b]].data();
-    reflectRowBlock(u, beta, l_in->data(), blocks[b].data(), w_data, w_data);
+    double* w_data[M];
+    for (int m = 0; m < M; ++m) w_data[m] = w[m][rows[b]].data();
+    reflectRowBlock<M>(h, l_in->data(), blocks[b].data(), w_data);
   }
 }
 
-__attribute__((target("avx2,fma"))) void subtractTransposedProductsAvx(Vec3& x, const Mat3* blocks,
-                                                                       const Index* rows,
-                                                                       Index size,
-                                                                       const double* solution) {
+LSLAM_TARGET_AVX_FMA void subtractTransposedProductsAvx(Vec3& x, const Mat3* blocks,
+                                                        const Index* rows, Index size,
+                                                        const double* solution) {
   // Three named accumulators, not an array: GCC kept an array on the stack around the loop.
   __m256d acc0 = _mm256_setzero_pd();
   __m256d acc1 = _mm256_setzero_pd();
@@ -116,10 +143,9 @@ __attribute__((target("avx2,fma"))) void subtractTransposedProductsAvx(Vec3& x, 
   x(2) -= sumOfLanes012(acc2);
 }
 
-__attribute__((target("avx2,fma"))) void addBlockProductsAvx(const Mat3* blocks, const Index* rows,
-                                                             Index first, Index size, const Mat3& s,
-                                                             const Index* target_rows,
-                                                             Mat3* target) {
+LSLAM_TARGET_AVX_FMA void addBlockProductsAvx(const Mat3* blocks, const Index* rows, Index first,
+                                              Index size, const Mat3& s, const Index* target_rows,
+                                              Mat3* target) {
   Index p = 1;
   for (Index b = first; b < size; ++b) {
     while (target_rows[p] < rows[b]) ++p;
@@ -135,9 +161,10 @@ __attribute__((target("avx2,fma"))) void addBlockProductsAvx(const Mat3* blocks,
   }
 }
 
-__attribute__((target("avx2,fma"))) void addBlockProductsOfColumnsAvx(
-    const Mat3* const* columns, const Mat3* s, Index num_columns, const Index* rows, Index first,
-    Index size, const Index* target_rows, Mat3* target) {
+LSLAM_TARGET_AVX_FMA void addBlockProductsOfColumnsAvx(const Mat3* const* columns, const Mat3* s,
+                                                       Index num_columns, const Index* rows,
+                                                       Index first, Index size,
+                                                       const Index* target_rows, Mat3* target) {
   Index p = 1;
   Index b = first;
   // Two rows at a time: each broadcast of an s entry (the loads, not the multiply-adds, set the
@@ -193,11 +220,13 @@ __attribute__((target("avx2,fma"))) void addBlockProductsOfColumnsAvx(
 #else
 
 // Never called (cpuHasAvxFma() is false here), but the calls behind it must link.
-void applyRowReflectionsAvx(const Mat3&, const Vec3&, Mat3*, const Index*, Index, Mat3*) {
+template <int M>
+void applyRowReflectionsAvx(const Mat3*, const Vec3&, Mat3*, const Index*, Index, Mat3* const*) {
   LSLAM_ASSERT(false);
 }
-void applyRowReflectionsFromAvx(const Mat3&, const Vec3&, const Mat3*, const Index*, Mat3*,
-                                const Index*, Index, Mat3*) {
+template <int M>
+void applyRowReflectionsFromAvx(const Mat3*, const Vec3&, const Mat3*, const Index*, Mat3*,
+                                const Index*, Index, Mat3* const*) {
   LSLAM_ASSERT(false);
 }
 void subtractTransposedProductsAvx(Vec3&, const Mat3*, const Index*, Index, const double*) {
@@ -213,6 +242,16 @@ void addBlockProductsOfColumnsAvx(const Mat3* const*, const Mat3*, Index, const 
 }
 
 #endif
+
+// The reflections of one factor and of two, from either branch above.
+template void applyRowReflectionsAvx<1>(const Mat3*, const Vec3&, Mat3*, const Index*, Index,
+                                        Mat3* const*);
+template void applyRowReflectionsAvx<2>(const Mat3*, const Vec3&, Mat3*, const Index*, Index,
+                                        Mat3* const*);
+template void applyRowReflectionsFromAvx<1>(const Mat3*, const Vec3&, const Mat3*, const Index*,
+                                            Mat3*, const Index*, Index, Mat3* const*);
+template void applyRowReflectionsFromAvx<2>(const Mat3*, const Vec3&, const Mat3*, const Index*,
+                                            Mat3*, const Index*, Index, Mat3* const*);
 
 }  // namespace detail
 }  // namespace lslam

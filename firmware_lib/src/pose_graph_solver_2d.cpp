@@ -542,16 +542,38 @@ bool PoseGraphSolver2D::reachesBack(const Index* position_of) const {
   return false;
 }
 
+// The factors that reach back (loop closures) go in pairs, each pair rotated together along the
+// part of their paths they share; the rest (odometry: the last two columns) one by one.
 Status PoseGraphSolver2D::addRowsOfAddedFactors(const Index* position_of) {
-  for (Index f = first_new_factor_; f < graph_.factors(); ++f) {
+  using FactorRows = IncrementalCholesky<3>::FactorRows;
+  struct Whitened {
     Index positions[2];
     Mat3 rows[2];
-    Vec3 rhs;
-    const Index count = graph_.whitenedRows(f, position_of, positions, rows, &rhs);
-    const Status s = cholesky_.addFactorRows(positions, rows, count, rhs);
+    FactorRows rows_of;
+  };
+  Whitened whitened[2];
+  int pending = 0;  // reaching-back factors whitened, waiting for a partner
+  const Index newest_committed = cholesky_.columns() - 1;
+  for (Index f = first_new_factor_; f < graph_.factors(); ++f) {
+    Whitened& w = whitened[pending];
+    const Index count = graph_.whitenedRows(f, position_of, w.positions, w.rows, &w.rows_of.rhs);
+    w.rows_of.positions = w.positions;
+    w.rows_of.rows_transposed = w.rows;
+    w.rows_of.count = count;
+    const bool back =
+        std::min(w.positions[0], count > 1 ? w.positions[1] : w.positions[0]) < newest_committed;
+    Status s = Status::Ok;
+    if (!back) {
+      s = cholesky_.addFactorRows(w.rows_of);
+    } else if (pending == 0) {
+      pending = 1;
+    } else {
+      s = cholesky_.addFactorRows(whitened[0].rows_of, w.rows_of);
+      pending = 0;
+    }
     if (s != Status::Ok) return s;
   }
-  return Status::Ok;
+  return pending == 1 ? cholesky_.addFactorRows(whitened[0].rows_of) : Status::Ok;
 }
 
 void PoseGraphSolver2D::markAffectedColumns(const Index* position_of, Index relinearized) {

@@ -37,23 +37,49 @@ inline void addBlockProduct(Eigen::Matrix<double, D, D>& t, const Eigen::Matrix<
 #endif
 }
 
-// [x_l x_w] H_0 ... H_{D-1} in place, for the rows of x_l and x_w (any count, D columns each),
-// with H_j = I - beta(j) v_j v_j^T and v_j = e_j + [0; u.col(j)] (2D long). Per row and
-// reflection: t = x_l(j) + sum_c x_w(c) u(c, j) (fused, c ascending), s = beta(j) t,
-// x_l(j) -= s, x_w(c) -= s u(c, j) (fused).
-template <int D, typename XL, typename XW>
-inline void applyRowReflections(const Eigen::Matrix<double, D, D>& u,
-                                const Eigen::Matrix<double, D, 1>& beta, XL& x_l, XW& x_w) {
+// [x_l x_w[0] .. x_w[M-1]] H_0 ... H_{D-1} in place, for the rows of x_l and of each x_w[m] (any
+// count, D columns each): the reflections of the row update, which rotates M factors' rows
+// (M = 1, or 2 for two factors taken together) into a column. H_j = I - beta(j) v_j v_j^T with
+// v_j = e_j + [0; u[0].col(j); ..; u[M-1].col(j)] ((M + 1) D long). Per row and reflection:
+// t = x_l(j) + sum_m sum_c x_w[m](c) u[m](c, j) (fused; m, then c ascending), s = beta(j) t,
+// x_l(j) -= s, x_w[m](c) -= s u[m](c, j) (fused).
+template <int D, int M, typename XL, typename XW>
+inline void applyRowReflections(const Eigen::Matrix<double, D, D>* u,
+                                const Eigen::Matrix<double, D, 1>& beta, XL& x_l, XW* const* x_w) {
   for (Eigen::Index i = 0; i < x_l.rows(); ++i) {
+    // The row in locals for all D reflections: through the matrices, every store may alias u for
+    // all the compiler knows, and the scalar Cortex-M reloaded the row after each one.
+    double l[D];
+    double x[M][D];
+#pragma GCC unroll 6
+    for (int c = 0; c < D; ++c) l[c] = x_l(i, c);
+#pragma GCC unroll 2
+    for (int m = 0; m < M; ++m) {
+#pragma GCC unroll 6
+      for (int c = 0; c < D; ++c) x[m][c] = (*x_w[m])(i, c);
+    }
 #pragma GCC unroll 6
     for (int j = 0; j < D; ++j) {
-      double t = x_l(i, j);
+      double t = l[j];
+#pragma GCC unroll 2
+      for (int m = 0; m < M; ++m) {
 #pragma GCC unroll 6
-      for (int c = 0; c < D; ++c) t = std::fma(x_w(i, c), u(c, j), t);
+        for (int c = 0; c < D; ++c) t = std::fma(x[m][c], u[m](c, j), t);
+      }
       const double s = beta(j) * t;
-      x_l(i, j) -= s;
+      l[j] -= s;
+#pragma GCC unroll 2
+      for (int m = 0; m < M; ++m) {
 #pragma GCC unroll 6
-      for (int c = 0; c < D; ++c) x_w(i, c) = std::fma(-s, u(c, j), x_w(i, c));
+        for (int c = 0; c < D; ++c) x[m][c] = std::fma(-s, u[m](c, j), x[m][c]);
+      }
+    }
+#pragma GCC unroll 6
+    for (int c = 0; c < D; ++c) x_l(i, c) = l[c];
+#pragma GCC unroll 2
+    for (int m = 0; m < M; ++m) {
+#pragma GCC unroll 6
+      for (int c = 0; c < D; ++c) (*x_w[m])(i, c) = x[m][c];
     }
   }
 }
@@ -97,15 +123,27 @@ constexpr bool cpuHasAvxFma() {
 }
 #endif
 
-// applyRowReflections on the row blocks x_l = blocks[b], x_w = w[rows[b]] for b in [1, size).
-void applyRowReflectionsAvx(const Mat3& u, const Vec3& beta, Mat3* blocks, const Index* rows,
-                            Index size, Mat3* w);
+// The AVX forms' target (on x86-64 only). A function template's declaration must carry it too:
+// GCC compiles the template's instances with the attributes of its first declaration.
+#if defined(__x86_64__)
+#define LSLAM_TARGET_AVX_FMA __attribute__((target("avx2,fma")))
+#else
+#define LSLAM_TARGET_AVX_FMA
+#endif
+
+// applyRowReflections<3, M> on the row blocks x_l = blocks[b], x_w[m] = w[m][rows[b]] for b in
+// [1, size). Instantiated for M = 1 and 2.
+template <int M>
+LSLAM_TARGET_AVX_FMA void applyRowReflectionsAvx(const Mat3* u, const Vec3& beta, Mat3* blocks,
+                                                 const Index* rows, Index size, Mat3* const* w);
 // The same with x_l read from source_blocks[source[b]] (a zero block where source[b] is
 // kNoIndex) and written to blocks[b]: the row update's merge into the staging area and its
 // reflections in one pass.
-void applyRowReflectionsFromAvx(const Mat3& u, const Vec3& beta, const Mat3* source_blocks,
-                                const Index* source, Mat3* blocks, const Index* rows, Index size,
-                                Mat3* w);
+template <int M>
+LSLAM_TARGET_AVX_FMA void applyRowReflectionsFromAvx(const Mat3* u, const Vec3& beta,
+                                                     const Mat3* source_blocks, const Index* source,
+                                                     Mat3* blocks, const Index* rows, Index size,
+                                                     Mat3* const* w);
 
 // subtractTransposedProductsFused, the same bits.
 void subtractTransposedProductsAvx(Vec3& x, const Mat3* blocks, const Index* rows, Index size,

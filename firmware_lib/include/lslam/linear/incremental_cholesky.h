@@ -84,12 +84,14 @@ struct CholeskyArrays {
   // columns in their fresh order, each affected column's rank in the affected set, and the cliques
   // (old affected columns) that hold each affected variable, as compressed lists.
   Index* new_position = nullptr;  // max_columns
-  Index* top_order = nullptr;     // max_columns
+  Index* top_order = nullptr;     // max_columns; also: the rows of two factors' shared path
   Index* rank_of = nullptr;       // max_columns
   Index* clique_start = nullptr;  // max_columns + 1
   Index* clique_entry = nullptr;  // max_blocks
-  // The row update (see addFactorRows): the update rows' block at each column position.
-  Block* update_rows = nullptr;  // max_columns
+  // The row update (see addFactorRows): the update rows' block at each column position, of the
+  // factor taken alone or the first of two, and of the second of two.
+  Block* update_rows = nullptr;         // max_columns
+  Block* second_update_rows = nullptr;  // max_columns
   // The back-substitution's solution by column position, detail::kSolutionStride<D> doubles per
   // column (padding zero): max_columns * detail::kSolutionStride<D>.
   double* solution = nullptr;
@@ -165,8 +167,17 @@ class IncrementalCholesky {
   // The rows of one factor: `count` column positions (ascending not required) and, for each, the
   // D x D block A_r^T (D rows of the factor, so a rank-D update), and the whitened right-hand side
   // b. Added columns start empty; every one must receive rows before finishRowUpdate().
-  [[nodiscard]] Status addFactorRows(const Index* positions, const Block* rows_transposed,
-                                     Index count, const Vector& rhs);
+  struct FactorRows {
+    const Index* positions;
+    const Block* rows_transposed;
+    Index count;
+    Vector rhs;
+  };
+  [[nodiscard]] Status addFactorRows(const FactorRows& factor);
+  // Two factors at once, the same result up to rounding: where their paths meet, both are rotated
+  // into each column of the shared path in one pass (a rank-2D update), so that path's columns are
+  // read, reflected and staged once, not twice.
+  [[nodiscard]] Status addFactorRows(const FactorRows& first, const FactorRows& second);
   // Ends the row updates of this update: NotPositiveDefinite if an added column received none.
   [[nodiscard]] Status finishRowUpdate();
 
@@ -243,11 +254,22 @@ class IncrementalCholesky {
     return Eigen::Map<const Vector>(a_.solution + detail::kSolutionStride<D> * k);
   }
   Index packColumns(Index* columns, Index num, Index* start, const Index* count, Index write);
+  void loadFactorRows(const FactorRows& factor, Index* pattern, Block* w);
+  template <int M>
+  [[nodiscard]] Status rotateNextColumn(const Index*& rest, Index& rest_size, Block* const* w,
+                                        Vector* rhs);
+  Index uniteRows(const Index* first, Index first_size, const Index* second, Index second_size,
+                  Index* united);
+  template <int M>
   [[nodiscard]] Status rowUpdateColumn(Index k, const Index* pattern, Index pattern_size,
-                                       Vector& rhs);
-  bool zeroUnreachedRows(const Index* rows, Index size, const Index* pattern, Index pattern_size);
+                                       Block* const* w, Vector* rhs);
+  template <int M>
+  bool zeroUnreachedRows(const Index* rows, Index size, const Index* pattern, Index pattern_size,
+                         Block* const* w);
+  template <int M>
   Index mergeRows(Index k, const Index* old_rows, Index old_size, const Index* pattern,
-                  Index pattern_size, bool zero_unreached, Index* rows, Index* source);
+                  Index pattern_size, bool zero_unreached, Block* const* w, Index* rows,
+                  Index* source);
 
   CholeskyArrays<D> a_;
   Index n_ = 0;
@@ -311,6 +333,7 @@ class StaticCholeskyStorage {
     a.clique_start = clique_start_;
     a.clique_entry = clique_entry_;
     a.update_rows = update_rows_;
+    a.second_update_rows = second_update_rows_;
     a.solution = solution_;
     return a;
   }
@@ -345,6 +368,7 @@ class StaticCholeskyStorage {
   Index clique_start_[MaxColumns + 1];
   Index clique_entry_[MaxBlocks];
   Block update_rows_[MaxColumns];
+  Block second_update_rows_[MaxColumns];
   alignas(32) double solution_[MaxColumns * detail::kSolutionStride<D>];
 };
 
