@@ -178,14 +178,21 @@ void checkAvxReflections(std::mt19937& rng, const std::vector<Index>& rows,
   for (Index b = 1; b < size; ++b) {
     if (keep(rng)) source[b] = static_cast<Index>((b * 7 + n) % size);
   }
+  // The first `kept` rows are the old column's, in place (their source implied, not read).
+  const Index kept = 1 + static_cast<Index>(n) % size;
+  for (Index b = 1; b < kept; ++b) source[b] = (b * 5 + n) % size;
   std::vector<Eigen::Matrix3d> staged(rows.size(), randomBlock<3>(rng));
   std::vector<Eigen::Matrix3d> staged_expected = staged;
   for (Index b = 1; b < size; ++b) {
-    staged_expected[b] =
-        source[b] == lslam::kNoIndex ? Eigen::Matrix3d::Zero() : sources[source[b]];
+    if (b < kept) {
+      staged_expected[b] = sources[b];
+    } else {
+      staged_expected[b] =
+          source[b] == lslam::kNoIndex ? Eigen::Matrix3d::Zero() : sources[source[b]];
+    }
   }
   reflect_expected(staged_expected, w_expected);
-  lslam::detail::applyRowReflectionsFromAvx<M>(u, beta, sources.data(), source.data(),
+  lslam::detail::applyRowReflectionsFromAvx<M>(u, beta, sources.data(), source.data(), kept,
                                                staged.data(), rows.data(), size, w_of);
   for (std::size_t b = 0; b < staged.size(); ++b) CHECK(sameBits(staged[b], staged_expected[b]));
   for (int m = 0; m < M; ++m) {

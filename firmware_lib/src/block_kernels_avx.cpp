@@ -109,11 +109,16 @@ LSLAM_TARGET_AVX_FMA void applyRowReflectionsAvx(const Mat3* u, const Vec3& beta
 template <int M>
 LSLAM_TARGET_AVX_FMA void applyRowReflectionsFromAvx(const Mat3* u, const Vec3& beta,
                                                      const Mat3* source_blocks, const Index* source,
-                                                     Mat3* blocks, const Index* rows, Index size,
-                                                     Mat3* const* w) {
+                                                     Index kept, Mat3* blocks, const Index* rows,
+                                                     Index size, Mat3* const* w) {
   static const Mat3 kZero = Mat3::Zero();
   const ReflectionCoefficients<M> h(u, beta);
-  for (Index b = 1; b < size; ++b) {
+  for (Index b = 1; b < kept; ++b) {
+    double* w_data[M];
+    for (int m = 0; m < M; ++m) w_data[m] = w[m][rows[b]].data();
+    reflectRowBlock<M>(h, source_blocks[b].data(), blocks[b].data(), w_data);
+  }
+  for (Index b = kept; b < size; ++b) {
     // A select, not a branch: fill rows sit anywhere in the column.
     const Mat3* l_in = source[b] != kNoIndex ? source_blocks + source[b] : &kZero;
     double* w_data[M];
@@ -225,7 +230,7 @@ void applyRowReflectionsAvx(const Mat3*, const Vec3&, Mat3*, const Index*, Index
   LSLAM_ASSERT(false);
 }
 template <int M>
-void applyRowReflectionsFromAvx(const Mat3*, const Vec3&, const Mat3*, const Index*, Mat3*,
+void applyRowReflectionsFromAvx(const Mat3*, const Vec3&, const Mat3*, const Index*, Index, Mat3*,
                                 const Index*, Index, Mat3* const*) {
   LSLAM_ASSERT(false);
 }
@@ -249,9 +254,9 @@ template void applyRowReflectionsAvx<1>(const Mat3*, const Vec3&, Mat3*, const I
 template void applyRowReflectionsAvx<2>(const Mat3*, const Vec3&, Mat3*, const Index*, Index,
                                         Mat3* const*);
 template void applyRowReflectionsFromAvx<1>(const Mat3*, const Vec3&, const Mat3*, const Index*,
-                                            Mat3*, const Index*, Index, Mat3* const*);
+                                            Index, Mat3*, const Index*, Index, Mat3* const*);
 template void applyRowReflectionsFromAvx<2>(const Mat3*, const Vec3&, const Mat3*, const Index*,
-                                            Mat3*, const Index*, Index, Mat3* const*);
+                                            Index, Mat3*, const Index*, Index, Mat3* const*);
 
 }  // namespace detail
 }  // namespace lslam

@@ -136,14 +136,14 @@ constexpr bool cpuHasAvxFma() {
 template <int M>
 LSLAM_TARGET_AVX_FMA void applyRowReflectionsAvx(const Mat3* u, const Vec3& beta, Mat3* blocks,
                                                  const Index* rows, Index size, Mat3* const* w);
-// The same with x_l read from source_blocks[source[b]] (a zero block where source[b] is
-// kNoIndex) and written to blocks[b]: the row update's merge into the staging area and its
-// reflections in one pass.
+// The same with x_l read from source_blocks[b] for b < kept and from source_blocks[source[b]]
+// beyond (a zero block where source[b] is kNoIndex), and written to blocks[b]: the row update's
+// merge into the staging area and its reflections in one pass.
 template <int M>
 LSLAM_TARGET_AVX_FMA void applyRowReflectionsFromAvx(const Mat3* u, const Vec3& beta,
                                                      const Mat3* source_blocks, const Index* source,
-                                                     Mat3* blocks, const Index* rows, Index size,
-                                                     Mat3* const* w);
+                                                     Index kept, Mat3* blocks, const Index* rows,
+                                                     Index size, Mat3* const* w);
 
 // subtractTransposedProductsFused, the same bits.
 void subtractTransposedProductsAvx(Vec3& x, const Mat3* blocks, const Index* rows, Index size,

@@ -269,7 +269,7 @@ class IncrementalCholesky {
   template <int M>
   Index mergeRows(Index k, const Index* old_rows, Index old_size, const Index* pattern,
                   Index pattern_size, bool zero_unreached, Block* const* w, Index* rows,
-                  Index* source);
+                  Index* source, Index* kept);
 
   CholeskyArrays<D> a_;
   Index n_ = 0;
