@@ -138,13 +138,7 @@ Status IncrementalCholesky<D>::addFactorRows(const FactorRows& factor) {
   loadFactorRows(factor, pattern, a_.update_rows);
   Block* const w[1] = {a_.update_rows};
   Vector rhs[1] = {factor.rhs};
-  const Index* rest = pattern;
-  Index rest_size = factor.count;
-  while (rest_size > 0) {
-    const Status s = rotateNextColumn<1>(rest, rest_size, w, rhs);
-    if (s != Status::Ok) return s;
-  }
-  return Status::Ok;
+  return rotateToRoot<1>(pattern, factor.count, w, rhs);
 }
 
 // Until the two paths meet, the lower of the two next columns goes first (the other factor's
@@ -176,23 +170,23 @@ Status IncrementalCholesky<D>::addFactorRows(const FactorRows& first, const Fact
     if (s != Status::Ok) return s;
   }
   // One path may have ended at a root the other never reaches (a forest).
-  while (size_first > 0 && size_second == 0) {
-    const Status s = rotateNextColumn<1>(rest_first, size_first, w_first, rhs_first);
-    if (s != Status::Ok) return s;
-  }
-  while (size_second > 0 && size_first == 0) {
-    const Status s = rotateNextColumn<1>(rest_second, size_second, w_second, rhs_second);
-    if (s != Status::Ok) return s;
-  }
-  if (size_first == 0) return Status::Ok;
+  if (size_first == 0) return rotateToRoot<1>(rest_second, size_second, w_second, rhs_second);
+  if (size_second == 0) return rotateToRoot<1>(rest_first, size_first, w_first, rhs_first);
   // They meet: from here on one path, with the rows of both.
   Index* rest = a_.top_order;
-  Index rest_size = uniteRows(rest_first, size_first, rest_second, size_second, rest);
+  const Index rest_size = uniteRows(rest_first, size_first, rest_second, size_second, rest);
   Block* const w[2] = {a_.update_rows, a_.second_update_rows};
   Vector rhs[2] = {rhs_first[0], rhs_second[0]};
-  const Index* next = rest;
+  return rotateToRoot<2>(rest, rest_size, w, rhs);
+}
+
+// Rotates the columns from rest[0] up the path to its root (see rotateNextColumn).
+template <int D>
+template <int M>
+Status IncrementalCholesky<D>::rotateToRoot(const Index* rest, Index rest_size, Block* const* w,
+                                            Vector* rhs) {
   while (rest_size > 0) {
-    const Status s = rotateNextColumn<2>(next, rest_size, w, rhs);
+    const Status s = rotateNextColumn<M>(rest, rest_size, w, rhs);
     if (s != Status::Ok) return s;
   }
   return Status::Ok;

@@ -256,6 +256,9 @@ class IncrementalCholesky {
   Index packColumns(Index* columns, Index num, Index* start, const Index* count, Index write);
   void loadFactorRows(const FactorRows& factor, Index* pattern, Block* w);
   template <int M>
+  [[nodiscard]] Status rotateToRoot(const Index* rest, Index rest_size, Block* const* w,
+                                    Vector* rhs);
+  template <int M>
   [[nodiscard]] Status rotateNextColumn(const Index*& rest, Index& rest_size, Block* const* w,
                                         Vector* rhs);
   Index uniteRows(const Index* first, Index first_size, const Index* second, Index second_size,
