@@ -166,7 +166,8 @@ void checkAvxReflections(std::mt19937& rng, const std::vector<Index>& rows,
   reflect_expected(blocks_expected, w_expected);
   Eigen::Matrix3d* w_of[M];
   arrays(w, w_of);
-  lslam::detail::applyRowReflectionsAvx<M>(u, beta, blocks.data(), rows.data(), size, w_of);
+  lslam::detail::applyRowReflectionsFromAvx<M>(u, beta, blocks.data(), nullptr, size, blocks.data(),
+                                               rows.data(), size, w_of);
   for (std::size_t b = 0; b < blocks.size(); ++b) CHECK(sameBits(blocks[b], blocks_expected[b]));
   for (int m = 0; m < M; ++m) {
     for (std::size_t r = 0; r < num_rows; ++r) CHECK(sameBits(w[m][r], w_expected[m][r]));

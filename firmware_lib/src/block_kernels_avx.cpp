@@ -61,7 +61,8 @@ struct ReflectionCoefficients {
   }
 };
 
-// One row block of applyRowReflectionsAvx: [l w[0] .. w[M-1]] H... from l_in to l_out, w in place.
+// One row block of applyRowReflectionsFromAvx: [l w[0] .. w[M-1]] H... from l_in to l_out, w in
+// place.
 template <int M>
 LSLAM_TARGET_AVX_FMA inline void reflectRowBlock(const ReflectionCoefficients<M>& h,
                                                  const double* l_in, double* l_out,
@@ -94,17 +95,6 @@ LSLAM_TARGET_AVX_FMA inline void reflectRowBlock(const ReflectionCoefficients<M>
 }
 
 }  // namespace
-
-template <int M>
-LSLAM_TARGET_AVX_FMA void applyRowReflectionsAvx(const Mat3* u, const Vec3& beta, Mat3* blocks,
-                                                 const Index* rows, Index size, Mat3* const* w) {
-  const ReflectionCoefficients<M> h(u, beta);
-  for (Index b = 1; b < size; ++b) {
-    double* w_data[M];
-    for (int m = 0; m < M; ++m) w_data[m] = w[m][rows[b]].data();
-    reflectRowBlock<M>(h, blocks[b].data(), blocks[b].data(), w_data);
-  }
-}
 
 template <int M>
 LSLAM_TARGET_AVX_FMA void applyRowReflectionsFromAvx(const Mat3* u, const Vec3& beta,
@@ -226,10 +216,6 @@ LSLAM_TARGET_AVX_FMA void addBlockProductsOfColumnsAvx(const Mat3* const* column
 
 // Never called (cpuHasAvxFma() is false here), but the calls behind it must link.
 template <int M>
-void applyRowReflectionsAvx(const Mat3*, const Vec3&, Mat3*, const Index*, Index, Mat3* const*) {
-  LSLAM_ASSERT(false);
-}
-template <int M>
 void applyRowReflectionsFromAvx(const Mat3*, const Vec3&, const Mat3*, const Index*, Index, Mat3*,
                                 const Index*, Index, Mat3* const*) {
   LSLAM_ASSERT(false);
@@ -249,10 +235,6 @@ void addBlockProductsOfColumnsAvx(const Mat3* const*, const Mat3*, Index, const 
 #endif
 
 // The reflections of one factor and of two, from either branch above.
-template void applyRowReflectionsAvx<1>(const Mat3*, const Vec3&, Mat3*, const Index*, Index,
-                                        Mat3* const*);
-template void applyRowReflectionsAvx<2>(const Mat3*, const Vec3&, Mat3*, const Index*, Index,
-                                        Mat3* const*);
 template void applyRowReflectionsFromAvx<1>(const Mat3*, const Vec3&, const Mat3*, const Index*,
                                             Index, Mat3*, const Index*, Index, Mat3* const*);
 template void applyRowReflectionsFromAvx<2>(const Mat3*, const Vec3&, const Mat3*, const Index*,

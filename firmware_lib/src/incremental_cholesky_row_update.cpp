@@ -42,32 +42,26 @@ struct RowReflections {
 };
 
 // [L(r, k) W_0(r) ..] H_0 ... H_{D-1} for the rows r = rows[b], b >= 1, written to blocks[b] and
-// w[m][r]: L(r, k) is blocks[b] itself (source == nullptr), or source_blocks[b] for b < kept and
-// source_blocks[source[b]] beyond (zero where that is kNoIndex).
+// w[m][r]: L(r, k) is source_blocks[b] for b < kept and source_blocks[source[b]] beyond (zero
+// where that is kNoIndex). In place: source_blocks == blocks, kept == size.
 template <int D, int M>
 void reflectRows(const RowReflections<D, M>& h, const Eigen::Matrix<double, D, D>* source_blocks,
                  const Index* source, Index kept, Eigen::Matrix<double, D, D>* blocks,
                  const Index* rows, Index size, Eigen::Matrix<double, D, D>* const* w) {
   if constexpr (D == 3) {
     if (detail::cpuHasAvxFma()) {
-      if (source == nullptr) {
-        detail::applyRowReflectionsAvx<M>(h.u, h.beta, blocks, rows, size, w);
-      } else {
-        detail::applyRowReflectionsFromAvx<M>(h.u, h.beta, source_blocks, source, kept, blocks,
-                                              rows, size, w);
-      }
+      detail::applyRowReflectionsFromAvx<M>(h.u, h.beta, source_blocks, source, kept, blocks, rows,
+                                            size, w);
       return;
     }
   }
   for (Index b = 1; b < size; ++b) {
-    if (source != nullptr && b < kept) {
-      blocks[b] = source_blocks[b];
-    } else if (source != nullptr) {
-      if (source[b] != kNoIndex) {
-        blocks[b] = source_blocks[source[b]];
-      } else {
-        blocks[b].setZero();
-      }
+    if (b < kept) {
+      if (source_blocks != blocks) blocks[b] = source_blocks[b];
+    } else if (source[b] != kNoIndex) {
+      blocks[b] = source_blocks[source[b]];
+    } else {
+      blocks[b].setZero();
     }
     Eigen::Matrix<double, D, D>* x_w[M];
     for (int m = 0; m < M; ++m) x_w[m] = &w[m][rows[b]];
@@ -201,9 +195,10 @@ Status IncrementalCholesky<D>::rotateNextColumn(const Index*& rest, Index& rest_
                                                 Block* const* w, Vector* rhs) {
   const Index k = rest[0];
   const Status s = rowUpdateColumn<M>(k, rest + 1, rest_size - 1, w, rhs);
+  if (s != Status::Ok) return s;
   rest = a_.rows + a_.staged_start[k] + 1;
   rest_size = a_.staged_count[k] - 1;
-  return s;
+  return Status::Ok;
 }
 
 // The union of two ascending row lists to `united`. A row only one of them holds has not been
@@ -282,7 +277,7 @@ Status IncrementalCholesky<D>::rowUpdateColumn(Index k, const Index* pattern, In
   Block* blocks = a_.blocks + start;
   Index size = old_size;
   if (in_place) {
-    reflectRows<D, M>(h, nullptr, nullptr, 0, blocks, rows, size, w);
+    reflectRows<D, M>(h, blocks, nullptr, size, blocks, rows, size, w);
   } else {
     // The merge decides the structure and where each block comes from; the reflections then read
     // the old blocks and write the staged ones in one pass (a copy to the staging area first, then

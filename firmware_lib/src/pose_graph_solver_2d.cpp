@@ -533,13 +533,18 @@ Index PoseGraphSolver2D::collectLastColumns(const Index* position_of, Index new_
 // two columns, and recomputing those is cheaper than whitening and rotating (on the Cortex-M7
 // about 6,100 against 9,000 instructions per step).
 bool PoseGraphSolver2D::reachesBack(const Index* position_of) const {
-  const Index newest_committed = cholesky_.columns() - 1;
   for (Index f = first_new_factor_; f < graph_.factors(); ++f) {
-    if (position_of[graph_.firstVariable(f)] < newest_committed) return true;
-    const Index second = graph_.secondVariable(f);
-    if (second != kNoIndex && position_of[second] < newest_committed) return true;
+    if (factorReachesBack(f, position_of)) return true;
   }
   return false;
+}
+
+// Whether factor f touches a column before the newest committed one.
+bool PoseGraphSolver2D::factorReachesBack(Index f, const Index* position_of) const {
+  const Index newest_committed = cholesky_.columns() - 1;
+  if (position_of[graph_.firstVariable(f)] < newest_committed) return true;
+  const Index second = graph_.secondVariable(f);
+  return second != kNoIndex && position_of[second] < newest_committed;
 }
 
 // The factors that reach back (loop closures) go in pairs, each pair rotated together along the
@@ -553,17 +558,13 @@ Status PoseGraphSolver2D::addRowsOfAddedFactors(const Index* position_of) {
   };
   Whitened whitened[2];
   int pending = 0;  // reaching-back factors whitened, waiting for a partner
-  const Index newest_committed = cholesky_.columns() - 1;
   for (Index f = first_new_factor_; f < graph_.factors(); ++f) {
     Whitened& w = whitened[pending];
-    const Index count = graph_.whitenedRows(f, position_of, w.positions, w.rows, &w.rows_of.rhs);
+    w.rows_of.count = graph_.whitenedRows(f, position_of, w.positions, w.rows, &w.rows_of.rhs);
     w.rows_of.positions = w.positions;
     w.rows_of.rows_transposed = w.rows;
-    w.rows_of.count = count;
-    const bool back =
-        std::min(w.positions[0], count > 1 ? w.positions[1] : w.positions[0]) < newest_committed;
     Status s = Status::Ok;
-    if (!back) {
+    if (!factorReachesBack(f, position_of)) {
       s = cholesky_.addFactorRows(w.rows_of);
     } else if (pending == 0) {
       pending = 1;

@@ -131,14 +131,11 @@ constexpr bool cpuHasAvxFma() {
 #define LSLAM_TARGET_AVX_FMA
 #endif
 
-// applyRowReflections<3, M> on the row blocks x_l = blocks[b], x_w[m] = w[m][rows[b]] for b in
-// [1, size). Instantiated for M = 1 and 2.
-template <int M>
-LSLAM_TARGET_AVX_FMA void applyRowReflectionsAvx(const Mat3* u, const Vec3& beta, Mat3* blocks,
-                                                 const Index* rows, Index size, Mat3* const* w);
-// The same with x_l read from source_blocks[b] for b < kept and from source_blocks[source[b]]
-// beyond (a zero block where source[b] is kNoIndex), and written to blocks[b]: the row update's
-// merge into the staging area and its reflections in one pass.
+// applyRowReflections<3, M> on the row blocks x_w[m] = w[m][rows[b]] and x_l, for b in [1, size):
+// x_l read from source_blocks[b] for b < kept and from source_blocks[source[b]] beyond (a zero
+// block where source[b] is kNoIndex), and written to blocks[b]. The row update's merge into the
+// staging area and its reflections in one pass; in place with source_blocks == blocks and
+// kept == size (source is then not read). Instantiated for M = 1 and 2.
 template <int M>
 LSLAM_TARGET_AVX_FMA void applyRowReflectionsFromAvx(const Mat3* u, const Vec3& beta,
                                                      const Mat3* source_blocks, const Index* source,

@@ -126,6 +126,7 @@ class PoseGraphSolver2D {
   Index collectLastColumns(const Index* position_of, Index new_columns);
   void markAffectedColumns(const Index* position_of, Index relinearized);
   bool reachesBack(const Index* position_of) const;
+  bool factorReachesBack(Index f, const Index* position_of) const;
   [[nodiscard]] Status addRowsOfAddedFactors(const Index* position_of);
   void noteRelinearizationCandidates(Index visited);
   void clearRelinearizationCandidates();
