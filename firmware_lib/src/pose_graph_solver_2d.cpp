@@ -6,6 +6,7 @@
 
 #include "lslam/factors/information.h"
 #include "lslam/factors/se2_factors.h"
+#include "lslam/linear/elimination_tree.h"
 
 namespace lslam {
 namespace {
@@ -226,6 +227,11 @@ Status PoseGraphSolver2D::computeOrdering(Index* variable_at, Index* position_of
   variable_at[last] = last;
   for (Index v = committed; v < graph_.variables(); ++v) variable_at[v] = v;
   for (Index k = 0; k < graph_.variables(); ++k) position_of[variable_at[k]] = k;
+  // Postordered (same fill) so that the solve reads the per-column arrays in sequence. The solve's
+  // visit list and the reordered update's list are idle while an ordering is computed.
+  postorderEliminationOrder(committed, variable_at, position_of, graph_, a_.visited, a_.last_list);
+  LSLAM_ASSERT(variable_at[last] == last);
+  for (Index k = 0; k < committed; ++k) position_of[variable_at[k]] = k;
   return Status::Ok;
 }
 

@@ -17,6 +17,16 @@ class NeighbourVisitor {
   ~NeighbourVisitor() = default;
 };
 
+// The adjacency of the variables in the factor graph: the pattern of Lambda.
+class NeighbourGraph {
+ public:
+  // Calls visitor.visit(u) for every variable u sharing a factor with `variable`.
+  virtual void visitNeighbours(Index variable, NeighbourVisitor& visitor) const = 0;
+
+ protected:
+  ~NeighbourGraph() = default;
+};
+
 // Receives the blocks of one column of Lambda and of eta, for rows addressed by column position.
 template <int D>
 class ColumnAccumulator {
@@ -59,10 +69,8 @@ class LaterDiagonals {
 };
 
 template <int D>
-class InformationSource {
+class InformationSource : public NeighbourGraph {
  public:
-  // Calls visitor.visit(u) for every variable u sharing a factor with `variable`.
-  virtual void visitNeighbours(Index variable, NeighbourVisitor& visitor) const = 0;
   // For a factorization that assembles every column, ascending, into columns zeroed beforehand:
   // adds column `variable` of Lambda (diagonal, and rows whose position is greater than
   // position[variable]) and the variable's eta, less what `later` received for it earlier. A

@@ -44,9 +44,10 @@ struct SolverArrays {
   Vec3* delta = nullptr;
   Index* relinearize_list = nullptr;
   std::uint8_t* relinearize_flag = nullptr;
-  Index* visited = nullptr;
+  Index* visited = nullptr;         // the solve's visit list; also scratch of computeOrdering()
   Index* marked = nullptr;          // the variables relinearized by the update in progress
-  Index* last_list = nullptr;       // positions kept last by a reordered update
+  Index* last_list = nullptr;       // positions kept last by a reordered update; also scratch
+                                    // of computeOrdering()
   std::uint8_t* in_last = nullptr;  // per position: already in last_list
 };
 
