@@ -613,18 +613,21 @@ void PoseGraphSolver2D::clearRelinearizationCandidates() {
   relinearization_urgent_ = false;
 }
 
+// Reads each visited variable's delta from the factor's copy by position, which the solve has just
+// written in the order visited (sequential in a postordered factor), rather than from delta by
+// variable (the same values, in a random order).
 void PoseGraphSolver2D::noteRelinearizationCandidates(Index visited) {
   const Index* variable_at = variableAt();
   for (Index i = 0; i < visited; ++i) {
-    const Index v = variable_at[a_.visited[i]];
+    const Index k = a_.visited[i];
+    const double moved = cholesky_.solutionAt(k).cwiseAbs().maxCoeff();
+    if (!(moved > options_.relinearize_threshold)) continue;
+    const Index v = variable_at[k];
     if (a_.relinearize_flag[v] != 0) continue;
-    const double moved = a_.delta[v].cwiseAbs().maxCoeff();
-    if (moved > options_.relinearize_threshold) {
-      a_.relinearize_flag[v] = 1;
-      a_.relinearize_list[relinearize_count_++] = v;
-      relinearization_urgent_ =
-          relinearization_urgent_ || moved > options_.relinearize_urgent_threshold;
-    }
+    a_.relinearize_flag[v] = 1;
+    a_.relinearize_list[relinearize_count_++] = v;
+    relinearization_urgent_ =
+        relinearization_urgent_ || moved > options_.relinearize_urgent_threshold;
   }
 }
 
