@@ -67,9 +67,9 @@ void postorderEliminationOrder(Index n, Index* order, const Index* position,
   Index* const postorder = count_scratch;
   Index next_root_free = n - 1;
   for (Index k = n - 1; k >= 0; --k) {
-    Index& free_above = parent[k] == kNoIndex ? next_root_free : next_free[parent[k]];
-    const Index mine = free_above;
-    free_above -= size[k];
+    Index& next_free_for_k = parent[k] == kNoIndex ? next_root_free : next_free[parent[k]];
+    const Index mine = next_free_for_k;
+    next_free_for_k -= size[k];  // k's subtree takes [mine - size[k] + 1, mine]
     postorder[k] = mine;
     next_free[k] = mine - 1;
   }
