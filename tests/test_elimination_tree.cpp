@@ -1,7 +1,8 @@
 // The postorder of an elimination order against a reference built independently: the elimination
 // tree from a dense symbolic factorization of the permuted pattern, then a recursive depth-first
-// walk. Also checked without the reference: the fill is unchanged, and every subtree is a run of
-// consecutive positions ending at its root.
+// walk. Also checked without the reference: the fill is unchanged, every subtree is a run of
+// consecutive positions ending at its root, and the solve's depth-first walk visits the positions
+// in descending order.
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -136,6 +137,21 @@ TEST_CASE(
     std::vector<Index> size(c.n, 1);
     for (Index k = 0; k < c.n; ++k)
       if (parent[k] != lslam::kNoIndex) size[parent[k]] += size[k];
+    // The solve's walk (roots and children highest first, each before its subtree) visits
+    // n - 1, n - 2, ..., 0 in turn.
+    std::vector<std::vector<Index>> children(c.n);
+    for (Index k = 0; k < c.n; ++k)
+      if (parent[k] != lslam::kNoIndex) children[parent[k]].push_back(k);
+    std::vector<Index> walk;
+    std::function<void(Index)> visit = [&](Index k) {
+      walk.push_back(k);
+      for (auto it = children[k].rbegin(); it != children[k].rend(); ++it) visit(*it);
+    };
+    for (Index k = c.n - 1; k >= 0; --k)
+      if (parent[k] == lslam::kNoIndex) visit(k);
+    std::vector<Index> descending(c.n);
+    std::iota(descending.rbegin(), descending.rend(), 0);
+    CHECK(walk == descending);
     for (Index k = 0; k < c.n; ++k) {
       // The size[k] - 1 positions below k are all k's descendants.
       for (Index d = k - size[k] + 1; d < k; ++d) {

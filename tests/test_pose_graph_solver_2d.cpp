@@ -6,6 +6,7 @@
 #include <cstring>
 #include <limits>
 #include <memory>
+#include <numeric>
 #include <vector>
 
 #include "host_sim/batch_solver.h"
@@ -129,8 +130,8 @@ TEST_CASE("with reordered updates of the affected top, too") {
 }
 
 // Feeds syntheticWorld(poses, seed) online to a solver with `options` and calls
-// check(result, prepared) after every update, `prepared` telling whether the update before
-// prepared an ordering (which this one must then apply).
+// check(result, prepared, solver) after every update, `prepared` telling whether the update
+// before prepared an ordering (which this one must then apply).
 template <class Check>
 void runOnline(Index poses, std::uint32_t seed, const SolverOptions& options, Check check) {
   const Dataset2D d = syntheticWorld(poses, seed);
@@ -144,7 +145,7 @@ void runOnline(Index poses, std::uint32_t seed, const SolverOptions& options, Ch
     REQUIRE(feedStep(*solver, d, steps[s], initial, &r) == Status::Ok);
     CHECK_FALSE((r.ordering_prepared && r.reordered));
     if (prepared) CHECK(r.reordered);
-    check(r, prepared);
+    check(r, prepared, *solver);
     prepared = r.ordering_prepared;
   }
 }
@@ -165,18 +166,19 @@ TEST_CASE(
       Index step = 0;
       Index prepared_step = 0;
       Index ordered_step = 0;
-      runOnline(60, seed, options, [&](const lslam::UpdateResult& r, bool) {
-        variables += r.variables_added;
-        if (r.ordering_prepared && prepared_at == 0) {
-          prepared_at = variables;
-          prepared_step = step;
-        }
-        if (r.reordered && ordered_at == 0) {
-          ordered_at = variables;
-          ordered_step = step;
-        }
-        ++step;
-      });
+      runOnline(60, seed, options,
+                [&](const lslam::UpdateResult& r, bool, const PoseGraphSolver2D&) {
+                  variables += r.variables_added;
+                  if (r.ordering_prepared && prepared_at == 0) {
+                    prepared_at = variables;
+                    prepared_step = step;
+                  }
+                  if (r.reordered && ordered_at == 0) {
+                    ordered_at = variables;
+                    ordered_step = step;
+                  }
+                  ++step;
+                });
       if (ahead) {
         CHECK(prepared_at == options.reorder_min_variables);
         CHECK(ordered_step == prepared_step + 1);
@@ -199,20 +201,62 @@ TEST_CASE(
   for (std::uint32_t seed = 70; seed < 73; ++seed) {
     CAPTURE(seed);
     std::int64_t last_full = 0;  // block products of the last full refactorization
-    runOnline(200, seed, options, [&](const lslam::UpdateResult& r, bool was_prepared) {
-      if (r.ordering_prepared) {
-        CHECK(last_full >= options.prepare_ordering_min_products);
-        ++prepared;
-      }
-      if (r.reordered && !was_prepared) {
-        CHECK(last_full < options.prepare_ordering_min_products);
-        ++in_one_update;
-      }
-      if (r.refactored_fully) last_full = r.block_products;
-    });
+    runOnline(200, seed, options,
+              [&](const lslam::UpdateResult& r, bool was_prepared, const PoseGraphSolver2D&) {
+                if (r.ordering_prepared) {
+                  CHECK(last_full >= options.prepare_ordering_min_products);
+                  ++prepared;
+                }
+                if (r.reordered && !was_prepared) {
+                  CHECK(last_full < options.prepare_ordering_min_products);
+                  ++in_one_update;
+                }
+                if (r.refactored_fully) last_full = r.block_products;
+              });
   }
   CHECK(prepared > 0);
   CHECK(in_one_update > 1);
+}
+
+// The positions the solve's depth-first walk visits, from the factor's parents alone: roots and
+// children highest first, each column before its subtree.
+std::vector<Index> solveWalk(const IncrementalCholesky<3>& factor) {
+  const Index n = factor.columns();
+  std::vector<std::vector<Index>> children(static_cast<std::size_t>(n));
+  std::vector<Index> roots;
+  for (Index k = 0; k < n; ++k) {
+    const Index p = factor.parent(k);
+    (p == kNoIndex ? roots : children[static_cast<std::size_t>(p)]).push_back(k);
+  }
+  std::vector<Index> walk;
+  std::vector<Index> stack(roots.begin(), roots.end());  // highest root on top
+  while (!stack.empty()) {
+    const Index k = stack.back();
+    stack.pop_back();
+    walk.push_back(k);
+    for (Index c : children[static_cast<std::size_t>(k)]) stack.push_back(c);
+  }
+  return walk;
+}
+
+TEST_CASE(
+    "every ordering is postordered and online updates keep it so: the solve walks the positions "
+    "n-1, n-2, ..., 0 in turn") {
+  SolverOptions options;
+  options.reorder_min_variables = 20;
+  options.reorder_path_columns = 30;
+  int reorders = 0;
+  for (std::uint32_t seed = 80; seed < 84; ++seed) {
+    CAPTURE(seed);
+    runOnline(250, seed, options,
+              [&](const lslam::UpdateResult& r, bool, const PoseGraphSolver2D& solver) {
+                reorders += r.reordered ? 1 : 0;
+                std::vector<Index> descending(static_cast<std::size_t>(solver.factor().columns()));
+                std::iota(descending.rbegin(), descending.rend(), 0);
+                REQUIRE(solveWalk(solver.factor()) == descending);
+              });
+  }
+  CHECK(reorders > 20);
 }
 
 TEST_CASE(
@@ -280,19 +324,21 @@ TEST_CASE("the rent-or-buy rule reorders exactly when the growth work passes its
       std::int64_t excess = 0;
       Index base = 0;
       int orderings = 0;
-      runOnline(300, seed, options, [&](const lslam::UpdateResult& r, bool prepared) {
-        CHECK(r.reordered == prepared);
-        if (base > 0) CHECK(r.ordering_prepared == (!prepared && budget > 0 && excess > budget));
-        if (r.reordered) {
-          ++orderings;
-          base = r.factor_blocks;
-          budget = static_cast<std::int64_t>(ratio * static_cast<double>(r.block_products) *
-                                             static_cast<double>(base));
-          excess = 0;
-        } else if (base > 0 && r.factor_blocks > base) {
-          excess += r.block_products * (r.factor_blocks - base);
-        }
-      });
+      runOnline(300, seed, options,
+                [&](const lslam::UpdateResult& r, bool prepared, const PoseGraphSolver2D&) {
+                  CHECK(r.reordered == prepared);
+                  if (base > 0)
+                    CHECK(r.ordering_prepared == (!prepared && budget > 0 && excess > budget));
+                  if (r.reordered) {
+                    ++orderings;
+                    base = r.factor_blocks;
+                    budget = static_cast<std::int64_t>(
+                        ratio * static_cast<double>(r.block_products) * static_cast<double>(base));
+                    excess = 0;
+                  } else if (base > 0 && r.factor_blocks > base) {
+                    excess += r.block_products * (r.factor_blocks - base);
+                  }
+                });
       if (ratio == 0.0) {
         CHECK(orderings == 1);  // only the first, at reorder_min_variables
       } else {
@@ -319,11 +365,12 @@ TEST_CASE(
       options.reorder_relinearized_share = 2.0;
       options.relinearize_urgent_threshold = 0.0;
       options.relinearize_full_cost_ratio = ratio;
-      runOnline(200, seed, options, [&](const lslam::UpdateResult& r, bool prepared) {
-        CHECK(r.reordered == prepared);
-        if (r.variables_relinearized > 0) (r.refactored_fully ? fully : in_place) += 1;
-        if (r.ordering_prepared) ++postponed;
-      });
+      runOnline(200, seed, options,
+                [&](const lslam::UpdateResult& r, bool prepared, const PoseGraphSolver2D&) {
+                  CHECK(r.reordered == prepared);
+                  if (r.variables_relinearized > 0) (r.refactored_fully ? fully : in_place) += 1;
+                  if (r.ordering_prepared) ++postponed;
+                });
     }
     if (ratio > 0.0) {
       CHECK(in_place == 0);
