@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "lslam/linear/elimination_tree.h"
+#include "solve_order.h"
 
 namespace {
 
@@ -137,21 +138,10 @@ TEST_CASE(
     std::vector<Index> size(c.n, 1);
     for (Index k = 0; k < c.n; ++k)
       if (parent[k] != lslam::kNoIndex) size[parent[k]] += size[k];
-    // The solve's walk (roots and children highest first, each before its subtree) visits
-    // n - 1, n - 2, ..., 0 in turn.
-    std::vector<std::vector<Index>> children(c.n);
-    for (Index k = 0; k < c.n; ++k)
-      if (parent[k] != lslam::kNoIndex) children[parent[k]].push_back(k);
-    std::vector<Index> walk;
-    std::function<void(Index)> visit = [&](Index k) {
-      walk.push_back(k);
-      for (auto it = children[k].rbegin(); it != children[k].rend(); ++it) visit(*it);
-    };
-    for (Index k = c.n - 1; k >= 0; --k)
-      if (parent[k] == lslam::kNoIndex) visit(k);
+    // The solve's walk visits n - 1, n - 2, ..., 0 in turn.
     std::vector<Index> descending(c.n);
     std::iota(descending.rbegin(), descending.rend(), 0);
-    CHECK(walk == descending);
+    CHECK(lslam::test::solveOrder(parent) == descending);
     for (Index k = 0; k < c.n; ++k) {
       // The size[k] - 1 positions below k are all k's descendants.
       for (Index d = k - size[k] + 1; d < k; ++d) {

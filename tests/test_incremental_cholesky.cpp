@@ -5,7 +5,6 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cstring>
-#include <functional>
 #include <memory>
 #include <numeric>
 #include <random>
@@ -13,6 +12,7 @@
 #include <vector>
 
 #include "lslam/linear/incremental_cholesky.h"
+#include "solve_order.h"
 
 namespace {
 
@@ -331,25 +331,6 @@ TEST_CASE("a full refactorization through long chains of nested columns equals d
   }
 }
 
-// The order in which backSubstitute visits the columns, from the committed parents alone: the
-// roots, then depth first, each column before its subtree, larger siblings first.
-std::vector<Index> solveOrder(const lslam::IncrementalCholesky<3>& chol) {
-  const Index n = chol.columns();
-  std::vector<std::vector<Index>> children(static_cast<std::size_t>(n + 1));
-  for (Index k = 0; k < n; ++k) {
-    const Index p = chol.parent(k);
-    children[static_cast<std::size_t>(p == lslam::kNoIndex ? n : p)].push_back(k);
-  }
-  std::vector<Index> order;
-  std::function<void(Index)> visit = [&](Index k) {
-    if (k != n) order.push_back(k);
-    const auto& c = children[static_cast<std::size_t>(k)];
-    for (auto it = c.rbegin(); it != c.rend(); ++it) visit(*it);
-  };
-  visit(n);
-  return order;
-}
-
 // A factor grown by updates, compacted, then refactorized under a random order (more fill than
 // the grown one, so the fresh columns start below the live size). Returns the pool end before the
 // refactorization.
@@ -407,7 +388,7 @@ TEST_CASE(
       const std::vector<Eigen::Vector3d> depth_first = fullSolve(h->chol, h->variable_at);
       CHECK(std::memcmp(depth_first.data(), in_column_order.data(),
                         sizeof(Eigen::Vector3d) * static_cast<std::size_t>(h->source.size())) == 0);
-      const std::vector<Index> order = solveOrder(h->chol);
+      const std::vector<Index> order = lslam::test::solveOrder(h->chol);
       REQUIRE(static_cast<Index>(order.size()) == h->chol.columns());
       bool consecutive = true;
       for (std::size_t i = 1; i < order.size(); ++i) {

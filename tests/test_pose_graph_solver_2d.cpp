@@ -15,6 +15,7 @@
 #include "host_sim/steps.h"
 #include "host_sim/synthetic.h"
 #include "lslam/solver/pose_graph_solver_2d.h"
+#include "solve_order.h"
 
 using namespace lslam;
 using namespace lslam::sim;
@@ -218,27 +219,6 @@ TEST_CASE(
   CHECK(in_one_update > 1);
 }
 
-// The positions the solve's depth-first walk visits, from the factor's parents alone: roots and
-// children highest first, each column before its subtree.
-std::vector<Index> solveWalk(const IncrementalCholesky<3>& factor) {
-  const Index n = factor.columns();
-  std::vector<std::vector<Index>> children(static_cast<std::size_t>(n));
-  std::vector<Index> roots;
-  for (Index k = 0; k < n; ++k) {
-    const Index p = factor.parent(k);
-    (p == kNoIndex ? roots : children[static_cast<std::size_t>(p)]).push_back(k);
-  }
-  std::vector<Index> walk;
-  std::vector<Index> stack(roots.begin(), roots.end());  // highest root on top
-  while (!stack.empty()) {
-    const Index k = stack.back();
-    stack.pop_back();
-    walk.push_back(k);
-    for (Index c : children[static_cast<std::size_t>(k)]) stack.push_back(c);
-  }
-  return walk;
-}
-
 TEST_CASE(
     "every ordering is postordered and online updates keep it so: the solve walks the positions "
     "n-1, n-2, ..., 0 in turn") {
@@ -253,7 +233,7 @@ TEST_CASE(
                 reorders += r.reordered ? 1 : 0;
                 std::vector<Index> descending(static_cast<std::size_t>(solver.factor().columns()));
                 std::iota(descending.rbegin(), descending.rend(), 0);
-                REQUIRE(solveWalk(solver.factor()) == descending);
+                REQUIRE(lslam::test::solveOrder(solver.factor()) == descending);
               });
   }
   CHECK(reorders > 20);

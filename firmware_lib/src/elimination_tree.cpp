@@ -54,9 +54,8 @@ void postorderEliminationOrder(Index n, Index* order, const Index* position,
   // Subtree sizes: a parent's position is above its children's, so one ascending pass adds every
   // child's finished size into its parent before the parent's own turn.
   Index* const size = count_scratch;
-  for (Index k = 0; k < n; ++k) size[k] = 0;
+  for (Index k = 0; k < n; ++k) size[k] = 1;
   for (Index k = 0; k < n; ++k) {
-    size[k] += 1;
     if (parent[k] != kNoIndex) size[parent[k]] += size[k];
   }
   // Postorder positions, parents before children (descending): a subtree takes the highest free
