@@ -7,8 +7,10 @@
 
 namespace lslam {
 
-PoseGraph2D::PoseGraph2D(const PoseGraph2DArrays& arrays) : a_(arrays) {
-  LSLAM_ASSERT(a_.max_variables > 0 && a_.max_factors > 0);
+PoseGraph2D::PoseGraph2D(const PoseGraph2DArrays& arrays, bool cache_linearizations)
+    : a_(arrays),
+      cache_(cache_linearizations && a_.linearized != nullptr && a_.linearized_epoch != nullptr) {
+  LSLAM_ASSERT(a_.max_variables > 0 && a_.max_factors > 0 && a_.point_epoch != nullptr);
   std::memset(a_.staged, 0, sizeof(std::uint32_t) * static_cast<std::size_t>(a_.max_variables));
 }
 
@@ -26,6 +28,7 @@ Index PoseGraph2D::addVariable(const SE2& initial) {
   LSLAM_ASSERT(in_update_ && num_variables_ < a_.max_variables);
   const Index v = num_variables_++;
   a_.linearization[v] = initial;
+  a_.point_epoch[v] = epoch_;
   a_.first_entry[v] = kNoIndex;
   return v;
 }
@@ -59,6 +62,7 @@ Index PoseGraph2D::addBetween(Index from, Index to, const SE2& z, const Mat3& in
   a_.second_variable[f] = to;
   a_.measurement[f] = z;
   a_.information[f] = information;
+  if (cache_) a_.linearized_epoch[f] = 0;  // nothing cached (may hold a rolled-back factor's)
   link(from, f);
   link(to, f);
   return f;
@@ -73,6 +77,7 @@ void PoseGraph2D::relinearize(Index variable, const SE2& point) {
 
 void PoseGraph2D::unstageRelinearization() {
   LSLAM_ASSERT(in_update_);
+  forgetStagedLinearizations();
   for (Index i = 0; i < staged_count_; ++i) a_.staged[a_.staged_list[i]] = 0;  // stamps are >= 1
   staged_count_ = 0;
 }
@@ -84,9 +89,11 @@ const SE2& PoseGraph2D::linearizationPoint(Index variable) const {
 
 void PoseGraph2D::commit() {
   LSLAM_ASSERT(in_update_);
+  if (staged_count_ > 0) advanceEpoch();
   for (Index i = 0; i < staged_count_; ++i) {
     const Index v = a_.staged_list[i];
     a_.linearization[v] = a_.staged_linearization[v];
+    a_.point_epoch[v] = epoch_;
   }
   committed_variables_ = num_variables_;
   committed_factors_ = num_factors_;
@@ -94,8 +101,27 @@ void PoseGraph2D::commit() {
   in_update_ = false;
 }
 
+// Points move at a new epoch, so that every linearization cached before stops matching them. On
+// wrapping, every cached linearization is forgotten and every point restarts at epoch 1.
+void PoseGraph2D::advanceEpoch() {
+  if (++epoch_ != 0) return;
+  epoch_ = 1;
+  for (Index f = 0; cache_ && f < num_factors_; ++f) a_.linearized_epoch[f] = 0;
+  for (Index v = 0; v < num_variables_; ++v) a_.point_epoch[v] = epoch_;
+}
+
+// The staged points are dropped: whatever the cache kept at them (stamped epoch_ + 1) must not
+// match again, so the staged variables move to an epoch past that stamp.
+void PoseGraph2D::forgetStagedLinearizations() {
+  if (staged_count_ == 0) return;
+  advanceEpoch();
+  advanceEpoch();
+  for (Index i = 0; i < staged_count_; ++i) a_.point_epoch[a_.staged_list[i]] = epoch_;
+}
+
 void PoseGraph2D::rollback() {
   LSLAM_ASSERT(in_update_);
+  forgetStagedLinearizations();
   // Unlink the added factors newest first: each was pushed at the head of its variables' lists.
   for (Index f = num_factors_ - 1; f >= committed_factors_; --f) {
     const Index second = a_.second_variable[f];
@@ -156,35 +182,87 @@ void PoseGraph2D::visitNeighbours(Index variable, NeighbourVisitor& visitor) con
   }
 }
 
+// One expression for every use, so that a cached linearization and a fresh one are the same bits.
+void PoseGraph2D::computeLinearizedBetween(Index f, const SE2& first, const SE2& second,
+                                           LinearizedBetween& out) const {
+  Mat3 j_first;
+  Mat3 j_second;
+  const Vec3 err = betweenErrorSE2(first, second, a_.measurement[f], &j_first, &j_second);
+  const Mat3& omega = a_.information[f];
+  const Mat3 omega_j_first = omega * j_first;
+  const Mat3 omega_j_second = omega * j_second;
+  const Vec3 omega_err = omega * err;
+  out.first_first = j_first.transpose() * omega_j_first;
+  out.second_second = j_second.transpose() * omega_j_second;
+  out.second_first = j_second.transpose() * omega_j_first;
+  out.eta_first = -(j_first.transpose() * omega_err);
+  out.eta_second = -(j_second.transpose() * omega_err);
+}
+
+// Linearizing dominates assembling a column (three sines and cosines and seven 3x3 products per
+// factor), and a full refactorization assembles every factor, most of them at the same points as
+// the last one: the cache keeps each factor's linearization until one of its points moves. An entry
+// is stamped with the epoch it was computed in, and valid while no point of its factor moved since
+// (its variables' point_epoch). A full refactorization also keeps what it computes at staged
+// points, stamped with the epoch its commit will open (those points then become the committed
+// ones); a rollback, or unstaging, moves the staged variables' point_epoch past that stamp. So an
+// entry that is used always holds what would be computed afresh, and every result is the same bits
+// with or without the cache.
+const LinearizedBetween& PoseGraph2D::linearizedBetween(Index f, bool committed, bool keep_staged,
+                                                        LinearizedBetween& scratch) const {
+  const Index first = a_.first_variable[f];
+  const Index second = a_.second_variable[f];
+  if (!cache_) {
+    const SE2& p = committed ? a_.linearization[first] : linearizationPoint(first);
+    const SE2& q = committed ? a_.linearization[second] : linearizationPoint(second);
+    computeLinearizedBetween(f, p, q, scratch);
+    return scratch;
+  }
+  const std::uint32_t at = a_.linearized_epoch[f];
+  LinearizedBetween& entry = a_.linearized[f];
+  if (!committed && (isStaged(first) || isStaged(second))) {
+    const std::uint32_t next = epoch_ + 1;
+    if (next == 0 || !keep_staged) {  // (at the wrap, nothing is kept ahead)
+      computeLinearizedBetween(f, linearizationPoint(first), linearizationPoint(second), scratch);
+      return scratch;
+    }
+    if (at != next) {
+      computeLinearizedBetween(f, linearizationPoint(first), linearizationPoint(second), entry);
+      a_.linearized_epoch[f] = next;
+    }
+    return entry;
+  }
+  if (at > epoch_ || at < a_.point_epoch[first] || at < a_.point_epoch[second]) {
+    computeLinearizedBetween(f, a_.linearization[first], a_.linearization[second], entry);
+    a_.linearized_epoch[f] = epoch_;
+  }
+  return entry;
+}
+
 void PoseGraph2D::addContribution(Index f, Index variable, const Index* position, bool committed,
-                                  double sign, ColumnAccumulator<3>& acc) const {
-  auto point = [&](Index v) -> const SE2& {
-    return committed ? a_.linearization[v] : linearizationPoint(v);
-  };
-  const Mat3 omega = sign * a_.information[f];
+                                  bool subtract, ColumnAccumulator<3>& acc) const {
   if (a_.kind[f] == FactorKind::PriorSE2) {
+    const SE2& point = committed ? a_.linearization[variable] : linearizationPoint(variable);
+    const Mat3 omega = subtract ? Mat3(-a_.information[f]) : a_.information[f];
     Mat3 j;
-    const Vec3 err = priorErrorSE2(point(variable), a_.measurement[f], &j);
+    const Vec3 err = priorErrorSE2(point, a_.measurement[f], &j);
     const Mat3 jt_omega = j.transpose() * omega;
     acc.addDiagonal(jt_omega * j);
     acc.addEta(-(jt_omega * err));
     return;
   }
-  const Index i = a_.first_variable[f];
-  const Index k = a_.second_variable[f];
-  Mat3 j_i;
-  Mat3 j_k;
-  const Vec3 err = betweenErrorSE2(point(i), point(k), a_.measurement[f], &j_i, &j_k);
-  const bool is_first = (i == variable);
-  const Mat3& j_self = is_first ? j_i : j_k;
-  const Mat3& j_other = is_first ? j_k : j_i;
-  const Index other = is_first ? k : i;
-  const Mat3 omega_j_self = omega * j_self;
-  acc.addDiagonal(j_self.transpose() * omega_j_self);
-  acc.addEta(-(j_self.transpose() * (omega * err)));
-  // Lambda(other, self) = J_other^T Omega J_self, kept only below the diagonal.
+  LinearizedBetween scratch;
+  const LinearizedBetween& lin = linearizedBetween(f, committed, false, scratch);
+  const bool is_first = a_.first_variable[f] == variable;
+  const Index other = otherVariable(f, variable);
+  // Negation is exact: subtracting a share is adding its negation, bit for bit.
+  const double sign = subtract ? -1.0 : 1.0;
+  acc.addDiagonal(sign * (is_first ? lin.first_first : lin.second_second));
+  acc.addEta(sign * (is_first ? lin.eta_first : lin.eta_second));
+  // Lambda(other, self), kept only below the diagonal.
   if (position[other] > position[variable]) {
-    acc.addBelow(position[other], j_other.transpose() * omega_j_self);
+    acc.addBelow(position[other], is_first ? Mat3(sign * lin.second_first)
+                                           : Mat3(sign * lin.second_first.transpose()));
   }
 }
 
@@ -193,28 +271,26 @@ void PoseGraph2D::assembleColumn(Index variable, const Index* position, ColumnAc
   for (Index e = a_.first_entry[variable]; e != kNoIndex; e = a_.next_entry[e]) {
     const Index f = a_.entry_factor[e];
     if (a_.kind[f] == FactorKind::PriorSE2) {
-      addContribution(f, variable, position, false, 1.0, acc);
+      addContribution(f, variable, position, false, false, acc);
       continue;
     }
-    const Index i = a_.first_variable[f];
-    const Index k = a_.second_variable[f];
     const Index other = otherVariable(f, variable);
     if (position[other] < position[variable]) continue;  // assembled with the earlier column
-    Mat3 j_i;
-    Mat3 j_k;
-    const Vec3 err = betweenErrorSE2(linearizationPoint(i), linearizationPoint(k),
-                                     a_.measurement[f], &j_i, &j_k);
-    const Mat3& j_self = i == variable ? j_i : j_k;
-    const Mat3& j_other = i == variable ? j_k : j_i;
-    const Mat3& omega = a_.information[f];
-    const Mat3 omega_j_self = omega * j_self;
-    const Mat3 omega_j_other = omega * j_other;
-    const Vec3 omega_err = omega * err;
-    acc.addDiagonal(j_self.transpose() * omega_j_self);
-    acc.addEta(-(j_self.transpose() * omega_err));
-    acc.addBelow(position[other], j_other.transpose() * omega_j_self);
-    later.addDiagonal(position[other], j_other.transpose() * omega_j_other);
-    later.addEta(position[other], -(j_other.transpose() * omega_err));
+    LinearizedBetween scratch;
+    const LinearizedBetween& lin = linearizedBetween(f, false, true, scratch);
+    if (a_.first_variable[f] == variable) {
+      acc.addDiagonal(lin.first_first);
+      acc.addEta(lin.eta_first);
+      acc.addBelow(position[other], lin.second_first);
+      later.addDiagonal(position[other], lin.second_second);
+      later.addEta(position[other], lin.eta_second);
+    } else {
+      acc.addDiagonal(lin.second_second);
+      acc.addEta(lin.eta_second);
+      acc.addBelow(position[other], lin.second_first.transpose());
+      later.addDiagonal(position[other], lin.first_first);
+      later.addEta(position[other], lin.eta_first);
+    }
   }
 }
 
@@ -227,9 +303,9 @@ void PoseGraph2D::assembleColumnChange(Index variable, const Index* position,
     if (!is_new) {
       const Index other = otherVariable(f, variable);
       if (!self_moved && (other == kNoIndex || !isStaged(other))) continue;
-      addContribution(f, variable, position, true, -1.0, acc);
+      addContribution(f, variable, position, true, true, acc);
     }
-    addContribution(f, variable, position, false, 1.0, acc);
+    addContribution(f, variable, position, false, false, acc);
   }
 }
 

@@ -32,7 +32,7 @@ PoseGraphSolver2D::PoseGraphSolver2D(const SolverArrays& arrays, const PoseGraph
                                      const CholeskyArrays<3>& factor, const ColamdArrays& ordering,
                                      const IdMapArrays& ids, const SolverOptions& options)
     : a_(arrays),
-      graph_(graph),
+      graph_(graph, options.cache_linearizations),
       cholesky_(factor),
       ordering_(ordering),
       ids_(ids),

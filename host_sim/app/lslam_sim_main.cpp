@@ -39,7 +39,7 @@ int usage() {
                "                 [--reorder-relinearized SHARE] [--reorder-refresh G]\n"
                "                 [--relinearize-full-cost RATIO] [--order-in-one-update]\n"
                "                 [--prepare-min-products N]\n"
-               "                 [--reorder-top] [--no-row-updates]\n"
+               "                 [--reorder-top] [--no-row-updates] [--no-linearization-cache]\n"
                "       lslam-sim generate OUT.g2o [--poses N] [--seed S]\n");
   return 2;
 }
@@ -245,6 +245,8 @@ int main(int argc, char** argv) {
         args.solver.reorder_affected_top = true;
       } else if (a == "--no-row-updates") {
         args.solver.row_updates = false;
+      } else if (a == "--no-linearization-cache") {
+        args.solver.cache_linearizations = false;
       } else if (a == "--reorder-relinearized" && has_value) {
         args.solver.reorder_relinearized_share = std::atof(argv[++i]);
       } else if (a == "--reorder-refresh" && has_value) {

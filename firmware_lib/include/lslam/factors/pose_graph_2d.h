@@ -17,6 +17,18 @@ namespace lslam {
 
 enum class FactorKind : std::uint8_t { PriorSE2, BetweenSE2 };
 
+// A between factor's share of Lambda and eta at given points of its two variables (first, second):
+// J_first^T Omega J_first, J_second^T Omega J_second, J_second^T Omega J_first = Lambda(second,
+// first), and -J^T Omega e for each. Always computed by the same expression, whether kept in the
+// cache or not, so that a cached value and a fresh one are the same bits.
+struct LinearizedBetween {
+  Mat3 first_first;
+  Mat3 second_second;
+  Mat3 second_first;
+  Vec3 eta_first;
+  Vec3 eta_second;
+};
+
 struct PoseGraph2DArrays {
   Index max_variables = 0;
   Index max_factors = 0;
@@ -32,11 +44,19 @@ struct PoseGraph2DArrays {
   Mat3* information = nullptr;          // max_factors
   Index* entry_factor = nullptr;        // 2 * max_factors: the factor-list links
   Index* next_entry = nullptr;          // 2 * max_factors
+  // The linearization cache (see PoseGraph2D): per variable, the epoch its committed point last
+  // changed; per factor, the cached linearization and the epoch it was computed in (0: none).
+  // linearized and linearized_epoch may be null: no cache.
+  std::uint32_t* point_epoch = nullptr;       // max_variables
+  LinearizedBetween* linearized = nullptr;    // max_factors
+  std::uint32_t* linearized_epoch = nullptr;  // max_factors
 };
 
 class PoseGraph2D final : public InformationSource<3> {
  public:
-  explicit PoseGraph2D(const PoseGraph2DArrays& arrays);
+  // cache_linearizations: keep each factor's linearization for the next full refactorization
+  // (needs the arrays' cache; off, or without them, every linearization is computed afresh).
+  explicit PoseGraph2D(const PoseGraph2DArrays& arrays, bool cache_linearizations = true);
 
   Index variables() const { return num_variables_; }
   Index factors() const { return num_factors_; }
@@ -90,11 +110,20 @@ class PoseGraph2D final : public InformationSource<3> {
     return a_.first_variable[factor] == variable ? a_.second_variable[factor]
                                                  : a_.first_variable[factor];
   }
-  // Adds sign * (the factor's share of Lambda's column `variable`, and of eta), linearized at the
-  // current points (committed == false) or at the committed ones.
+  // Adds (or subtracts) the factor's share of Lambda's column `variable`, and of eta, linearized
+  // at the current points (committed == false) or at the committed ones.
   void addContribution(Index factor, Index variable, const Index* position, bool committed,
-                       double sign, ColumnAccumulator<3>& acc) const;
+                       bool subtract, ColumnAccumulator<3>& acc) const;
+  void advanceEpoch();
+  void forgetStagedLinearizations();
   void link(Index variable, Index factor);
+  // The between factor's linearization at the committed points (committed) or the current ones:
+  // from the cache when it holds it, else computed and kept (at staged points only if keep_staged:
+  // a full refactorization, which uses each factor once).
+  const LinearizedBetween& linearizedBetween(Index factor, bool committed, bool keep_staged,
+                                             LinearizedBetween& scratch) const;
+  void computeLinearizedBetween(Index factor, const SE2& first, const SE2& second,
+                                LinearizedBetween& out) const;
 
   PoseGraph2DArrays a_;
   Index num_variables_ = 0;
@@ -104,12 +133,37 @@ class PoseGraph2D final : public InformationSource<3> {
   Index committed_factors_ = 0;
   Index committed_entries_ = 0;
   std::uint32_t stamp_ = 1;
+  // Advances at every commit that moves a linearization point; a cached linearization is valid
+  // while its epoch is not older than either variable's point_epoch.
+  std::uint32_t epoch_ = 1;
   Index staged_count_ = 0;
   bool in_update_ = false;
+  bool cache_ = false;
 };
 
-// Memory for a PoseGraph2D.
-template <Index MaxVariables, Index MaxFactors>
+namespace detail {
+
+// The linearization cache's memory: 268 bytes per factor (a Cortex-M can leave it out).
+template <Index MaxFactors, bool Present>
+struct LinearizationCacheStorage {
+  LinearizedBetween* entries() { return entries_; }
+  std::uint32_t* epochs() { return epochs_; }
+
+ private:
+  LinearizedBetween entries_[MaxFactors];
+  std::uint32_t epochs_[MaxFactors];
+};
+
+template <Index MaxFactors>
+struct LinearizationCacheStorage<MaxFactors, false> {
+  LinearizedBetween* entries() { return nullptr; }
+  std::uint32_t* epochs() { return nullptr; }
+};
+
+}  // namespace detail
+
+// Memory for a PoseGraph2D; LinearizationCache adds the cache (see PoseGraph2D).
+template <Index MaxVariables, Index MaxFactors, bool LinearizationCache = true>
 class StaticPoseGraph2DStorage {
  public:
   PoseGraph2DArrays arrays() {
@@ -128,6 +182,9 @@ class StaticPoseGraph2DStorage {
     a.information = information_;
     a.entry_factor = entry_factor_;
     a.next_entry = next_entry_;
+    a.point_epoch = point_epoch_;
+    a.linearized = cache_.entries();
+    a.linearized_epoch = cache_.epochs();
     return a;
   }
 
@@ -144,6 +201,8 @@ class StaticPoseGraph2DStorage {
   Mat3 information_[MaxFactors];
   Index entry_factor_[2 * MaxFactors];
   Index next_entry_[2 * MaxFactors];
+  std::uint32_t point_epoch_[MaxVariables];
+  detail::LinearizationCacheStorage<MaxFactors, LinearizationCache> cache_;
 };
 
 }  // namespace lslam

@@ -163,10 +163,10 @@ class PoseGraphSolver2D {
 namespace detail {
 
 // The memory of a solver, a base class so that it is built before the solver that points into it.
-template <Index MaxPoses, Index MaxFactors, Index MaxFactorBlocks>
+template <Index MaxPoses, Index MaxFactors, Index MaxFactorBlocks, bool LinearizationCache>
 class SolverStorage2D {
  protected:
-  StaticPoseGraph2DStorage<MaxPoses, MaxFactors> graph_storage_;
+  StaticPoseGraph2DStorage<MaxPoses, MaxFactors, LinearizationCache> graph_storage_;
   StaticCholeskyStorage<3, MaxPoses, MaxFactorBlocks> factor_storage_;
   StaticColamdStorage<2 * MaxFactors, MaxFactors, MaxPoses> ordering_storage_;
   StaticIdMapStorage<MaxPoses> id_storage_;
@@ -204,11 +204,14 @@ class SolverStorage2D {
 // A solver with all its memory inside: max_poses variables, max_factors measurements, and
 // max_factor_blocks 3x3 blocks for the Cholesky factor (the live factor plus room for the columns
 // one update rewrites; a reordering rewrites them all, so leave about twice the expected fill).
-template <Index MaxPoses, Index MaxFactors, Index MaxFactorBlocks>
+// LinearizationCache keeps every factor's linearization for the next full refactorization (268
+// bytes per factor; SolverOptions::cache_linearizations turns its use off at run time).
+template <Index MaxPoses, Index MaxFactors, Index MaxFactorBlocks, bool LinearizationCache = true>
 class StaticPoseGraphSolver2D
-    : private detail::SolverStorage2D<MaxPoses, MaxFactors, MaxFactorBlocks>,
+    : private detail::SolverStorage2D<MaxPoses, MaxFactors, MaxFactorBlocks, LinearizationCache>,
       public PoseGraphSolver2D {
-  using Storage = detail::SolverStorage2D<MaxPoses, MaxFactors, MaxFactorBlocks>;
+  using Storage =
+      detail::SolverStorage2D<MaxPoses, MaxFactors, MaxFactorBlocks, LinearizationCache>;
 
  public:
   static constexpr Index max_poses = MaxPoses;
