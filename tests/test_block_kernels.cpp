@@ -95,6 +95,46 @@ TEST_CASE("the portable block kernels match dense products and explicit reflecti
   checkPortableForms<6>(300);
 }
 
+namespace {
+
+template <int D>
+void checkMultiplyByTransposedLower(int cases) {
+  std::mt19937 rng(31 + D);
+  for (int n = 0; n < cases; ++n) {
+    const Eigen::Matrix<double, D, D> b = randomBlock<D>(rng);
+    // Lower-triangular, with garbage above the diagonal that must not be read.
+    Eigen::Matrix<double, D, D> l = randomBlock<D>(rng);
+    const Eigen::Matrix<double, D, D> lower = l.template triangularView<Eigen::Lower>();
+    Eigen::Matrix<double, D, D> out = b;
+    lslam::detail::multiplyByTransposedLower<D>(out, l);
+    const Eigen::Matrix<double, D, D> expected = b * lower.transpose();
+    CHECK((out - expected).cwiseAbs().maxCoeff() < 1e-12);
+  }
+}
+
+}  // namespace
+
+TEST_CASE("a block times a lower-triangular block's transpose matches the dense product") {
+  checkMultiplyByTransposedLower<2>(300);
+  checkMultiplyByTransposedLower<3>(300);
+  checkMultiplyByTransposedLower<6>(300);
+  if (!lslam::detail::cpuHasAvxFma()) return;
+  // The AVX form against the portable one, bit for bit, over a column of blocks.
+  std::mt19937 rng(37);
+  std::uniform_int_distribution<int> size_of(1, 20);
+  for (int n = 0; n < 300; ++n) {
+    std::vector<Eigen::Matrix3d> blocks(static_cast<std::size_t>(size_of(rng)));
+    for (auto& b : blocks) b = randomBlock<3>(rng);
+    const Eigen::Matrix3d l = randomBlock<3>(rng);
+    std::vector<Eigen::Matrix3d> avx = blocks;
+    lslam::detail::multiplyByTransposedLowerAvx(avx.data(), static_cast<Index>(avx.size()), l);
+    for (std::size_t i = 0; i < blocks.size(); ++i) {
+      lslam::detail::multiplyByTransposedLower<3>(blocks[i], l);
+      CHECK(sameBits(avx[i], blocks[i]));
+    }
+  }
+}
+
 TEST_CASE("the fused back-substitution step matches the dense transposed products") {
   std::mt19937 rng(23);
   std::uniform_int_distribution<int> size_of(1, 30);

@@ -117,6 +117,26 @@ LSLAM_TARGET_AVX_FMA void applyRowReflectionsFromAvx(const Mat3* u, const Vec3& 
   }
 }
 
+LSLAM_TARGET_AVX_FMA void multiplyByTransposedLowerAvx(Mat3* blocks, Index count, const Mat3& l) {
+  const __m256d l00 = _mm256_broadcast_sd(&l(0, 0));
+  const __m256d l10 = _mm256_broadcast_sd(&l(1, 0));
+  const __m256d l11 = _mm256_broadcast_sd(&l(1, 1));
+  const __m256d l20 = _mm256_broadcast_sd(&l(2, 0));
+  const __m256d l21 = _mm256_broadcast_sd(&l(2, 1));
+  const __m256d l22 = _mm256_broadcast_sd(&l(2, 2));
+  for (Index b = 0; b < count; ++b) {
+    double* block = blocks[b].data();
+    const __m256d b0 = loadColumn(block, 0);
+    const __m256d b1 = loadColumn(block, 1);
+    const __m256d b2 = loadColumn(block, 2);
+    // Column j: b0 l(j, 0), then + b1 l(j, 1), + b2 l(j, 2) up to m = j, fused in that order.
+    const __m256d c0 = _mm256_mul_pd(b0, l00);
+    const __m256d c1 = _mm256_fmadd_pd(b1, l11, _mm256_mul_pd(b0, l10));
+    const __m256d c2 = _mm256_fmadd_pd(b2, l22, _mm256_fmadd_pd(b1, l21, _mm256_mul_pd(b0, l20)));
+    storeColumns(block, c0, c1, c2);
+  }
+}
+
 LSLAM_TARGET_AVX_FMA void subtractTransposedProductsAvx(Vec3& x, const Mat3* blocks,
                                                         const Index* rows, Index size,
                                                         const double* solution) {
@@ -221,6 +241,9 @@ void applyRowReflectionsFromAvx(const Mat3*, const Vec3&, const Mat3*, const Ind
   LSLAM_ASSERT(false);
 }
 void subtractTransposedProductsAvx(Vec3&, const Mat3*, const Index*, Index, const double*) {
+  LSLAM_ASSERT(false);
+}
+void multiplyByTransposedLowerAvx(Mat3*, Index, const Mat3&) {
   LSLAM_ASSERT(false);
 }
 void addBlockProductsAvx(const Mat3*, const Index*, Index, Index, const Mat3&, const Index*,

@@ -316,8 +316,16 @@ Status IncrementalCholesky<D>::finishColumn(Index k) {
   if (!invertedCholesky<D>(blocks[0], l, l_inv)) return Status::NotPositiveDefinite;
   a_.staged_diagonal[k] = l;
   blocks[0] = l_inv;
-  const Block l_inv_t = l_inv.transpose();
-  for (Index i = 1; i < size; ++i) blocks[i] = (blocks[i] * l_inv_t).eval();
+  // L(:,k) = C(:,k) L(k,k)^-T, and L(k,k)^-1 is lower-triangular: 6 multiply-adds per block row.
+  bool scaled = false;
+  if constexpr (D == 3) {
+    if (detail::cpuHasAvxFma()) {
+      detail::multiplyByTransposedLowerAvx(blocks + 1, size - 1, l_inv);
+      scaled = true;
+    }
+  }
+  for (Index i = 1; !scaled && i < size; ++i)
+    detail::multiplyByTransposedLower<D>(blocks[i], l_inv);
   a_.staged_d[k] = (l_inv * a_.staged_d[k]).eval();
   return Status::Ok;
 }
