@@ -239,6 +239,28 @@ void checkAvxReflections(std::mt19937& rng, const std::vector<Index>& rows,
   for (int m = 0; m < M; ++m) {
     for (std::size_t r = 0; r < num_rows; ++r) CHECK(sameBits(w[m][r], w_expected[m][r]));
   }
+
+  // The right-hand side's row, through the AVX-compiled instance of the portable form.
+  using Row = Eigen::Matrix<double, 1, 3>;
+  Row d = randomBlock<3>(rng).row(0);
+  Row b_rows[M];
+  Row* b_of[M];
+  for (int m = 0; m < M; ++m) {
+    b_rows[m] = randomBlock<3>(rng).row(1);
+    b_of[m] = &b_rows[m];
+  }
+  Row d_expected = d;
+  Row b_expected[M];
+  Row* b_expected_of[M];
+  for (int m = 0; m < M; ++m) {
+    b_expected[m] = b_rows[m];
+    b_expected_of[m] = &b_expected[m];
+  }
+  lslam::detail::applyRowReflections<3, M>(u, beta, d_expected, b_expected_of);
+  lslam::detail::applyRowReflectionsToRowAvx<M>(u, beta, d, b_of);
+  CHECK(std::equal(d.data(), d.data() + 3, d_expected.data()));
+  for (int m = 0; m < M; ++m)
+    CHECK(std::equal(b_rows[m].data(), b_rows[m].data() + 3, b_expected[m].data()));
 }
 
 }  // namespace

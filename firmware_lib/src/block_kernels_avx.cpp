@@ -117,6 +117,13 @@ LSLAM_TARGET_AVX_FMA void applyRowReflectionsFromAvx(const Mat3* u, const Vec3& 
   }
 }
 
+template <int M>
+LSLAM_TARGET_AVX_FMA void applyRowReflectionsToRowAvx(const Mat3* u, const Vec3& beta,
+                                                      Eigen::Matrix<double, 1, 3>& x_l,
+                                                      Eigen::Matrix<double, 1, 3>* const* x_w) {
+  applyRowReflections<3, M>(u, beta, x_l, x_w);
+}
+
 LSLAM_TARGET_AVX_FMA void multiplyByTransposedLowerAvx(Mat3* blocks, Index count, const Mat3& l) {
   const __m256d l00 = _mm256_broadcast_sd(&l(0, 0));
   const __m256d l10 = _mm256_broadcast_sd(&l(1, 0));
@@ -246,6 +253,11 @@ void subtractTransposedProductsAvx(Vec3&, const Mat3*, const Index*, Index, cons
 void multiplyByTransposedLowerAvx(Mat3*, Index, const Mat3&) {
   LSLAM_ASSERT(false);
 }
+template <int M>
+void applyRowReflectionsToRowAvx(const Mat3*, const Vec3&, Eigen::Matrix<double, 1, 3>&,
+                                 Eigen::Matrix<double, 1, 3>* const*) {
+  LSLAM_ASSERT(false);
+}
 void addBlockProductsAvx(const Mat3*, const Index*, Index, Index, const Mat3&, const Index*,
                          Mat3*) {
   LSLAM_ASSERT(false);
@@ -258,6 +270,10 @@ void addBlockProductsOfColumnsAvx(const Mat3* const*, const Mat3*, Index, const 
 #endif
 
 // The reflections of one factor and of two, from either branch above.
+template void applyRowReflectionsToRowAvx<1>(const Mat3*, const Vec3&, Eigen::Matrix<double, 1, 3>&,
+                                             Eigen::Matrix<double, 1, 3>* const*);
+template void applyRowReflectionsToRowAvx<2>(const Mat3*, const Vec3&, Eigen::Matrix<double, 1, 3>&,
+                                             Eigen::Matrix<double, 1, 3>* const*);
 template void applyRowReflectionsFromAvx<1>(const Mat3*, const Vec3&, const Mat3*, const Index*,
                                             Index, Mat3*, const Index*, Index, Mat3* const*);
 template void applyRowReflectionsFromAvx<2>(const Mat3*, const Vec3&, const Mat3*, const Index*,

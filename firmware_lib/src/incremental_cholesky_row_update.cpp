@@ -299,7 +299,14 @@ Status IncrementalCholesky<D>::rowUpdateColumn(Index k, const Index* pattern, In
     b_rows[m] = rhs[m].transpose();
     b_row_of[m] = &b_rows[m];
   }
-  h.apply(d_row, b_row_of);
+  bool reflected = false;
+  if constexpr (D == 3) {
+    if (detail::cpuHasAvxFma()) {
+      detail::applyRowReflectionsToRowAvx<M>(h.u, h.beta, d_row, b_row_of);
+      reflected = true;
+    }
+  }
+  if (!reflected) h.apply(d_row, b_row_of);
   const Vector d_new = d_row.transpose();
   for (int m = 0; m < M; ++m) rhs[m] = b_rows[m].transpose();
   blocks[0] = detail::invertLowerTriangular<D>(l_new);

@@ -166,6 +166,14 @@ LSLAM_TARGET_AVX_FMA void applyRowReflectionsFromAvx(const Mat3* u, const Vec3& 
                                                      Index kept, Mat3* blocks, const Index* rows,
                                                      Index size, Mat3* const* w);
 
+// applyRowReflections<3, M> on one row (the right-hand side's, [d^T b_0^T ..] of the row update),
+// compiled for AVX2/FMA: outside such a function std::fma is a call into libm on x86-64 (0.6 % of
+// city10000's run went to those calls). The same bits. Instantiated for M = 1 and 2.
+template <int M>
+LSLAM_TARGET_AVX_FMA void applyRowReflectionsToRowAvx(const Mat3* u, const Vec3& beta,
+                                                      Eigen::Matrix<double, 1, 3>& x_l,
+                                                      Eigen::Matrix<double, 1, 3>* const* x_w);
+
 // subtractTransposedProductsFused, the same bits.
 void subtractTransposedProductsAvx(Vec3& x, const Mat3* blocks, const Index* rows, Index size,
                                    const double* solution);
