@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <limits>
 #include <memory>
 #include <numeric>
 #include <random>
@@ -194,13 +195,22 @@ bool sameBits(const std::vector<double>& a, const std::vector<double>& b) {
 
 }  // namespace
 
-TEST_CASE("the linearization cache gives what a fresh linearization gives, bit for bit") {
-  // Two graphs fed the same updates, one keeping linearizations, one computing every one afresh.
-  // Updates add poses and factors, stage relinearizations, assemble (full and in place), and then
-  // commit, roll back, or unstage first: a cache entry that outlived its points would differ.
+namespace lslam {
+struct PoseGraph2DTestAccess {
+  static void startEpochAt(PoseGraph2D& graph, std::uint32_t epoch) { graph.epoch_ = epoch; }
+};
+}  // namespace lslam
+
+namespace {
+
+// Two graphs fed the same updates, one keeping linearizations, one computing every one afresh.
+// Updates add poses and factors, stage relinearizations, assemble (full and in place), and then
+// commit, roll back, or unstage first: a cache entry that outlived its points would differ. The
+// cached graph's epochs start at first_epoch (near the wrap, to pass through it).
+void checkCacheAgainstFresh(std::uint32_t first_epoch, unsigned seed) {
   constexpr Index kMaxVariables = 24;
   constexpr Index kMaxFactors = 80;
-  std::mt19937 rng(kSeed + 1);
+  std::mt19937 rng(seed);
   auto with_cache = std::make_unique<StaticPoseGraph2DStorage<kMaxVariables, kMaxFactors>>();
   auto without = std::make_unique<StaticPoseGraph2DStorage<kMaxVariables, kMaxFactors, false>>();
   int compared = 0;
@@ -209,6 +219,7 @@ TEST_CASE("the linearization cache gives what a fresh linearization gives, bit f
     CAPTURE(c);
     PoseGraph2D cached(with_cache->arrays());
     PoseGraph2D fresh(without->arrays());
+    PoseGraph2DTestAccess::startEpochAt(cached, first_epoch);
     std::uniform_int_distribution<int> coin(0, 3);
     for (int u = 0; u < 30; ++u) {
       CAPTURE(u);
@@ -268,4 +279,15 @@ TEST_CASE("the linearization cache gives what a fresh linearization gives, bit f
   }
   CHECK(compared > 40 * 30 / 2);
   CHECK(hits_possible > 0);
+}
+
+}  // namespace
+
+TEST_CASE("the linearization cache gives what a fresh linearization gives, bit for bit") {
+  checkCacheAgainstFresh(1, kSeed + 1);
+}
+
+TEST_CASE("the linearization cache forgets everything when its epoch wraps") {
+  // 30 updates advance the epoch by up to 60: starting 20 below the wrap passes through it.
+  checkCacheAgainstFresh(std::numeric_limits<std::uint32_t>::max() - 20, kSeed + 2);
 }

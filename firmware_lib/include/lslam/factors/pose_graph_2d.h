@@ -139,6 +139,8 @@ class PoseGraph2D final : public InformationSource<3> {
   Index staged_count_ = 0;
   bool in_update_ = false;
   bool cache_ = false;
+
+  friend struct PoseGraph2DTestAccess;  // tests start the epoch near its wrap
 };
 
 namespace detail {
