@@ -101,8 +101,8 @@ void PoseGraph2D::commit() {
   in_update_ = false;
 }
 
-// Points move at a new epoch, so that every linearization cached before stops matching them. On
-// wrapping, every cached linearization is forgotten and every point restarts at epoch 1.
+// Moved points take the next epoch, so that every linearization cached before stops matching
+// them. On wrapping, every cached linearization is forgotten and every point restarts at epoch 1.
 void PoseGraph2D::advanceEpoch() {
   if (++epoch_ != 0) return;
   epoch_ = 1;
