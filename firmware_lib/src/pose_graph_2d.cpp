@@ -213,9 +213,7 @@ const LinearizedBetween& PoseGraph2D::linearizedBetween(Index f, bool committed,
   const Index first = a_.first_variable[f];
   const Index second = a_.second_variable[f];
   if (!cache_) {
-    const SE2& p = committed ? a_.linearization[first] : linearizationPoint(first);
-    const SE2& q = committed ? a_.linearization[second] : linearizationPoint(second);
-    computeLinearizedBetween(f, p, q, scratch);
+    computeLinearizedBetween(f, pointOf(first, committed), pointOf(second, committed), scratch);
     return scratch;
   }
   const std::uint32_t at = a_.linearized_epoch[f];
@@ -242,7 +240,7 @@ const LinearizedBetween& PoseGraph2D::linearizedBetween(Index f, bool committed,
 void PoseGraph2D::addContribution(Index f, Index variable, const Index* position, bool committed,
                                   bool subtract, ColumnAccumulator<3>& acc) const {
   if (a_.kind[f] == FactorKind::PriorSE2) {
-    const SE2& point = committed ? a_.linearization[variable] : linearizationPoint(variable);
+    const SE2& point = pointOf(variable, committed);
     const Mat3 omega = subtract ? Mat3(-a_.information[f]) : a_.information[f];
     Mat3 j;
     const Vec3 err = priorErrorSE2(point, a_.measurement[f], &j);

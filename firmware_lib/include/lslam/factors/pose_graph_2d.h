@@ -105,6 +105,10 @@ class PoseGraph2D final : public InformationSource<3> {
 
  private:
   bool isStaged(Index variable) const { return in_update_ && a_.staged[variable] == stamp_; }
+  // The committed point, or the current one (staged inside an update).
+  const SE2& pointOf(Index variable, bool committed) const {
+    return committed ? a_.linearization[variable] : linearizationPoint(variable);
+  }
   // The factor's other variable (kNoIndex for a prior).
   Index otherVariable(Index factor, Index variable) const {
     return a_.first_variable[factor] == variable ? a_.second_variable[factor]
