@@ -291,7 +291,7 @@ Status PoseGraphSolver2D::update(const PoseInput* poses, Index num_poses,
   // Every update begins the factor's update at least once, which does a pending layout.
   r.laid_out = cholesky_.layoutPending();
   const UpdatePlan plan = planUpdate(num_poses);
-  s = refactor(num_poses, plan.relinearized, true, plan.reorder_now, plan.refactor_fully, r);
+  s = refactor(num_poses, plan, true, r);
   if (s != Status::Ok) {
     forgetNewIds(poses, num_poses);
     return s;
@@ -319,8 +319,14 @@ Status PoseGraphSolver2D::update(const PoseInput* poses, Index num_poses,
 // refactorization when that is cheaper (relinearizationDear).
 PoseGraphSolver2D::UpdatePlan PoseGraphSolver2D::planUpdate(Index new_poses) {
   UpdatePlan plan;
-  const bool ordering_stale = ordering_prepared_ || wantsReorder();
-  plan.prepare_ordering = ordering_stale && !ordering_prepared_ && preparesOrderingAhead();
+  // (Counting the loop closures is skipped when the update has too few factors to be a burst.)
+  const Index burst = options_.reorder_burst_loop_closures;
+  plan.fresh_ordering = burst > 0 && graph_.factors() - first_new_factor_ > burst &&
+                        graph_.variables() >= options_.reorder_min_variables &&
+                        addedLoopClosures() > burst;
+  const bool ordering_stale = ordering_prepared_ || plan.fresh_ordering || wantsReorder();
+  plan.prepare_ordering =
+      ordering_stale && !ordering_prepared_ && !plan.fresh_ordering && preparesOrderingAhead();
   plan.reorder_now = ordering_stale && !plan.prepare_ordering;
   plan.relinearize_now = relinearization_urgent_ || plan.reorder_now ||
                          (options_.relinearize_skip > 0 &&
@@ -337,6 +343,18 @@ PoseGraphSolver2D::UpdatePlan PoseGraphSolver2D::planUpdate(Index new_poses) {
     plan.prepare_ordering = true;  // (a prepared ordering would have been applied: not stale)
   }
   return plan;
+}
+
+// The factors of this update that reach back before the newest committed pose. (The added poses
+// take their positions at the end of the active order here, as the update in place gives them.)
+Index PoseGraphSolver2D::addedLoopClosures() {
+  Index* position_of = a_.position_of[active_];
+  for (Index v = cholesky_.columns(); v < graph_.variables(); ++v) position_of[v] = v;
+  Index count = 0;
+  for (Index f = first_new_factor_; f < graph_.factors(); ++f) {
+    if (factorReachesBack(f, position_of)) ++count;
+  }
+  return count;
 }
 
 // The variables the last solve found beyond the relinearization threshold.
@@ -362,22 +380,26 @@ Index PoseGraphSolver2D::stageEveryMovedVariable(double tolerance) {
 }
 
 // Factorizes the staged graph change (added poses at the end, relinearized variables in a_.marked),
-// reordering first if the policy says so; commits everything or rolls the graph back.
-// ordering_stale: update() applies a prepared ordering, or wants a fresh one now (false when
-// !allow_reorder).
-Status PoseGraphSolver2D::refactor(Index new_poses, Index relinearized, bool allow_reorder,
-                                   bool ordering_stale, bool refactor_fully, UpdateResult& r) {
-  LSLAM_ASSERT(allow_reorder || !ordering_stale);
+// reordering first if the plan says so (the prepared ordering, unless the plan wants a fresh one
+// with this update's factors); commits everything or rolls the graph back.
+Status PoseGraphSolver2D::refactor(Index new_poses, const UpdatePlan& plan, bool allow_reorder,
+                                   UpdateResult& r) {
+  LSLAM_ASSERT(allow_reorder || !plan.reorder_now);
   const Index n = cholesky_.columns();
-  bool full = ordering_stale || refactor_fully;
-  bool reorder = ordering_stale || (full && !orderingFresh());
+  const Index relinearized = plan.relinearized;
+  bool full = plan.reorder_now || plan.refactor_fully;
+  bool reorder = plan.reorder_now || (full && !orderingFresh());
   int buffer = active_;
+  bool fresh = false;  // the ordering computed here, with this update's factors in it
+  bool prepared_overwritten = false;
   if (reorder) {
     buffer = 1 - active_;
-    if (ordering_prepared_) {
+    if (ordering_prepared_ && !plan.fresh_ordering) {
       takePreparedOrdering(a_.variable_at[buffer], a_.position_of[buffer]);
     } else {
-      reorder = computeOrdering(a_.variable_at[buffer], a_.position_of[buffer]) == Status::Ok;
+      prepared_overwritten = ordering_prepared_;
+      reorder = fresh =
+          computeOrdering(a_.variable_at[buffer], a_.position_of[buffer]) == Status::Ok;
     }
     if (!reorder) buffer = active_;  // no workspace for an ordering: keep the current one
     full = reorder;
@@ -391,10 +413,27 @@ Status PoseGraphSolver2D::refactor(Index new_poses, Index relinearized, bool all
     }
   }
   bool top_reordered = false;
-  const Status s = factorizeWithRetry(full, allow_reorder, new_poses, variable_at, position_of,
-                                      relinearized, &top_reordered, r);
+  Status s = factorizeWithRetry(full, allow_reorder, new_poses, variable_at, position_of,
+                                relinearized, &top_reordered, r);
+  if (s == Status::CapacityExhausted && allow_reorder && !fresh) {
+    // The update's fill does not fit in an order chosen without its factors (a burst of loop
+    // closures, say from a file that lists them after every pose): a fresh order over every
+    // factor, this update's included, usually fits.
+    const int other = 1 - active_;
+    prepared_overwritten = ordering_prepared_;
+    fresh = computeOrdering(a_.variable_at[other], a_.position_of[other]) == Status::Ok;
+    if (fresh) {
+      buffer = other;
+      reorder = full = true;
+      r.reordered_for_room = true;
+      s = factorizeWithRetry(true, allow_reorder, new_poses, a_.variable_at[other],
+                             a_.position_of[other], relinearized, &top_reordered, r);
+    }
+  }
   if (s != Status::Ok) {
     graph_.rollback();
+    // A fresh ordering overwrote the prepared one; the same committed graph prepares it again.
+    if (prepared_overwritten) prepareOrdering();
     r.status = s;
     return s;
   }
@@ -646,7 +685,9 @@ Status PoseGraphSolver2D::optimize(Index max_iterations, double tolerance, Updat
       break;
     }
     UpdateResult step;
-    const Status s = refactor(0, relinearized, false, false, false, step);
+    UpdatePlan plan;
+    plan.relinearized = relinearized;
+    const Status s = refactor(0, plan, false, step);
     if (s != Status::Ok) {
       r.status = s;
       return s;

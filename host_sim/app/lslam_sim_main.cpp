@@ -35,7 +35,7 @@ int usage() {
                "                 [--relinearize-urgent T]\n"
                "                 [--backsub-tolerance T]\n"
                "                 [--reorder-growth G] [--reorder-excess R]\n"
-               "                 [--reorder-path COLUMNS]\n"
+               "                 [--reorder-path COLUMNS] [--reorder-burst LOOP_CLOSURES]\n"
                "                 [--reorder-relinearized SHARE] [--reorder-refresh G]\n"
                "                 [--relinearize-full-cost RATIO] [--order-in-one-update]\n"
                "                 [--prepare-min-products N]\n"
@@ -259,6 +259,8 @@ int main(int argc, char** argv) {
         args.solver.prepare_ordering_ahead = false;
       } else if (a == "--reorder-path" && has_value) {
         args.solver.reorder_path_columns = std::atoi(argv[++i]);
+      } else if (a == "--reorder-burst" && has_value) {
+        args.solver.reorder_burst_loop_closures = std::atoi(argv[++i]);
       } else {
         return usage();
       }

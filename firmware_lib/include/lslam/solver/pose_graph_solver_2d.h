@@ -96,6 +96,7 @@ class PoseGraphSolver2D {
     bool relinearize_now = false;   // the candidates were due (their points staged, or waiting)
     Index relinearized = 0;         // variables whose linearization points are staged
     bool refactor_fully = false;    // relinearize by a full refactorization in the current order
+    bool fresh_ordering = false;    // reorder_now, in an ordering with this update's factors
   };
 
   Status validate(const PoseInput* poses, Index num_poses, const FactorInput* factors,
@@ -116,8 +117,9 @@ class PoseGraphSolver2D {
   void takePreparedOrdering(Index* variable_at, Index* position_of) const;
   Index stageCandidates();
   Index stageEveryMovedVariable(double tolerance);
-  Status refactor(Index new_poses, Index relinearized, bool allow_reorder, bool ordering_stale,
-                  bool refactor_fully, UpdateResult& result);
+  Index addedLoopClosures();
+  Status refactor(Index new_poses, const UpdatePlan& plan, bool allow_reorder,
+                  UpdateResult& result);
   Status factorizeWithRetry(bool full, bool allow_top_reorder, Index new_columns,
                             const Index* variable_at, const Index* position_of, Index relinearized,
                             bool* top_reordered, UpdateResult& result);

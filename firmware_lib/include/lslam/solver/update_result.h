@@ -20,6 +20,7 @@ struct UpdateResult {
   bool ordering_prepared = false;   // a COLAMD ordering was computed for the next update to apply
   bool top_reordered = false;       // the affected top alone was reordered and refactorized
   bool compacted = false;           // the block pool was compacted
+  bool reordered_for_room = false;  // the update did not fit in its order and ran in a fresh one
   bool laid_out = false;            // the last full refactorization's layout was done here
   Index factor_blocks = 0;          // nonzero blocks of L after the call
   Index iterations = 0;             // optimize(): Gauss-Newton iterations done
