@@ -144,6 +144,17 @@ LSLAM_TARGET_AVX_FMA void multiplyByTransposedLowerAvx(Mat3* blocks, Index count
   }
 }
 
+// acc_c += column c of block b times y, lane by lane (one column of b^T y per accumulator).
+LSLAM_TARGET_AVX_FMA inline void addTransposedProduct(const double* b, const double* y_entry,
+                                                      __m256d& acc0, __m256d& acc1, __m256d& acc2) {
+  // One load: the entry's fourth lane is zero, and meets the next column's first entry in
+  // loadColumn, a finite number.
+  const __m256d y = _mm256_loadu_pd(y_entry);
+  acc0 = _mm256_fmadd_pd(loadColumn(b, 0), y, acc0);
+  acc1 = _mm256_fmadd_pd(loadColumn(b, 1), y, acc1);
+  acc2 = _mm256_fmadd_pd(loadColumn(b, 2), y, acc2);
+}
+
 LSLAM_TARGET_AVX_FMA void subtractTransposedProductsAvx(Vec3& x, const Mat3* blocks,
                                                         const Index* rows, Index size,
                                                         const double* solution) {
@@ -151,14 +162,14 @@ LSLAM_TARGET_AVX_FMA void subtractTransposedProductsAvx(Vec3& x, const Mat3* blo
   __m256d acc0 = _mm256_setzero_pd();
   __m256d acc1 = _mm256_setzero_pd();
   __m256d acc2 = _mm256_setzero_pd();
-  for (Index i = 1; i < size; ++i) {
-    const double* b = blocks[i].data();
-    // One load: the entry's fourth lane is zero, and meets the next column's first entry in
-    // loadColumn, a finite number.
-    const __m256d y = _mm256_loadu_pd(solution + kSolutionStride<3> * rows[i]);
-    acc0 = _mm256_fmadd_pd(loadColumn(b, 0), y, acc0);
-    acc1 = _mm256_fmadd_pd(loadColumn(b, 1), y, acc1);
-    acc2 = _mm256_fmadd_pd(loadColumn(b, 2), y, acc2);
+  // The parent's product last (see subtractTransposedProductsFused).
+  for (Index i = 2; i < size; ++i) {
+    addTransposedProduct(blocks[i].data(), solution + kSolutionStride<3> * rows[i], acc0, acc1,
+                         acc2);
+  }
+  if (size > 1) {
+    addTransposedProduct(blocks[1].data(), solution + kSolutionStride<3> * rows[1], acc0, acc1,
+                         acc2);
   }
   x(0) -= sumOfLanes012(acc0);
   x(1) -= sumOfLanes012(acc1);

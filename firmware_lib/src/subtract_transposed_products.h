@@ -35,11 +35,14 @@ inline void subtractTransposedProducts(Eigen::Matrix<double, D, 1>& x,
   }
 #endif
 #if defined(__SSE2__) || defined(__ARM_NEON)
+  // The parent's product (row 1) last, as in the x86-64 form (see subtractTransposedProductsFused).
   Eigen::Matrix<double, D, D> acc = Eigen::Matrix<double, D, D>::Zero();
-  for (Index i = 1; i < size; ++i) {
+  const auto add = [&](Index i) {
     acc += blocks[i].cwiseProduct(
         ConstSolution(solution + kStride * rows[i]).template replicate<1, D>());
-  }
+  };
+  for (Index i = 2; i < size; ++i) add(i);
+  if (size > 1) add(1);
   x -= acc.colwise().sum().transpose();
 #else
   for (Index i = 1; i < size; ++i) {

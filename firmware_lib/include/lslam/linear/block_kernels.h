@@ -117,17 +117,23 @@ inline constexpr int kSolutionStride = D == 3 ? 4 : D;
 // x(c) -= sum_{i >= 1} (blocks[i]^T y_i)(c) with y_i the solution of row rows[i] (entries
 // solution[4 rows[i] + r], r < 3): the back-substitution's inner loop, in the form of the x86-64
 // host. Per entry (r, c) the products
-// blocks[i](r, c) y_i(r) are summed over i ascending (fused, from zero), and x(c) takes the three
-// sums of column c as x(c) - ((s_0 + s_1) + s_2): a SIMD lane per row, reduced once per column.
+// blocks[i](r, c) y_i(r) are summed over i = 2, 3, ..., size - 1 and then i = 1 (fused, from
+// zero), and x(c) takes the three sums of column c as x(c) - ((s_0 + s_1) + s_2): a SIMD lane per
+// row, reduced once per column. Row 1 is the column's parent, the column the back-substitution
+// solved just before (in a postordered factor): with its product last, the others need not wait
+// for its solution, and an out-of-order core overlaps them with the parent's own column (a
+// column-order solve of city10000's factor at 9,500 poses: 2.9-3.1 -> 2.6-3.0 ns per block).
 inline void subtractTransposedProductsFused(Vec3& x, const Mat3* blocks, const Index* rows,
                                             Index size, const double* solution) {
   Mat3 acc = Mat3::Zero();
-  for (Index i = 1; i < size; ++i) {
+  const auto add = [&](Index i) {
     const double* y = solution + kSolutionStride<3> * rows[i];
     for (int c = 0; c < 3; ++c) {
       for (int r = 0; r < 3; ++r) acc(r, c) = std::fma(blocks[i](r, c), y[r], acc(r, c));
     }
-  }
+  };
+  for (Index i = 2; i < size; ++i) add(i);
+  if (size > 1) add(1);
   for (int c = 0; c < 3; ++c) x(c) -= (acc(0, c) + acc(1, c)) + acc(2, c);
 }
 
