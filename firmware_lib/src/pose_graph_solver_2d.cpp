@@ -438,8 +438,9 @@ Status PoseGraphSolver2D::refactor(Index new_poses, const UpdatePlan& plan, bool
     return s;
   }
   if (top_reordered) buffer = 1 - active_;  // the reordered update wrote the other buffer
-  // Applied, or overwritten by a reordered update of the top.
-  if (reorder || top_reordered) ordering_prepared_ = false;
+  // Applied, or overwritten (by a reordered update of the top, or by an ordering that could not
+  // be computed).
+  if (reorder || top_reordered || prepared_overwritten) ordering_prepared_ = false;
   graph_.commit();
   active_ = buffer;
   // The relinearized and the added variables restart from delta = 0. The factor's copy of the
