@@ -66,6 +66,7 @@ void IncrementalCholesky<D>::beginUpdate(Index new_columns, bool full_refactor) 
   heap_size_ = 0;
   affected_count_ = 0;
   full_ = full_refactor;
+  keep_structures_ = false;
   reordered_ = false;
   top_collected_ = false;
   row_update_mark_ = 0;
@@ -84,6 +85,19 @@ void IncrementalCholesky<D>::markChanged(Index column) {
   if (full_) return;  // every column is recomputed anyway
   queue(column);
   top_collected_ = false;  // a collected affected set no longer covers every changed column
+}
+
+template <int D>
+void IncrementalCholesky<D>::keepUnchangedStructures() {
+  LSLAM_ASSERT(in_update_ && full_);
+  keep_structures_ = true;
+}
+
+// In a full refactorization the queue is idle, so its stamps mark the changed structures.
+template <int D>
+void IncrementalCholesky<D>::markStructureChanged(Index column) {
+  LSLAM_ASSERT(in_update_ && column >= 0 && column < staged_columns_);
+  if (keep_structures_) a_.queued[column] = stamp_;
 }
 
 template <int D>
@@ -140,7 +154,8 @@ Status IncrementalCholesky<D>::factorize(const InformationSource<D>& source,
   if (full_) {
     for (Index k = 0; k < staged_columns_; ++k) {
       a_.affected[affected_count_++] = k;
-      const Status s = buildStructure(k, source, variable_at, position_of);
+      const Status s = keepsStructure(k) ? stageOldStructure(k)
+                                         : buildStructure(k, source, variable_at, position_of);
       if (s != Status::Ok) return s;
     }
   }
@@ -238,6 +253,33 @@ Status IncrementalCholesky<D>::stageStructure(Index k, Index* rows, Index count)
   a_.rows[pool_end_] = k;
   std::memcpy(a_.rows + pool_end_ + 1, rows, sizeof(Index) * static_cast<std::size_t>(count));
   pool_end_ += count + 1;
+  return Status::Ok;
+}
+
+// Whether column k keeps its old structure (see keepUnchangedStructures); a column that does not
+// is stamped, so that its parent does not either. Its children are staged already.
+template <int D>
+bool IncrementalCholesky<D>::keepsStructure(Index k) {
+  if (!keep_structures_) return false;
+  bool changed = k >= n_ || a_.queued[k] == stamp_;
+  for (Index c = a_.child_head[k]; !changed && c != kNoIndex; c = a_.child_next[c]) {
+    changed = a_.queued[c] == stamp_;
+  }
+  if (changed) a_.queued[k] = stamp_;
+  return !changed;
+}
+
+// Stages column k's old structure as it is (k first, then its rows ascending).
+template <int D>
+Status IncrementalCholesky<D>::stageOldStructure(Index k) {
+  const Index count = a_.count[k];
+  if (pool_end_ + count > a_.max_blocks) return Status::CapacityExhausted;
+  a_.staged_start[k] = pool_end_;
+  a_.staged_count[k] = count;
+  std::memcpy(a_.rows + pool_end_, a_.rows + a_.start[k],
+              sizeof(Index) * static_cast<std::size_t>(count));
+  pool_end_ += count;
+  if (count > 1) linkStagedChild(k, a_.rows[a_.start[k] + 1]);
   return Status::Ok;
 }
 

@@ -513,6 +513,16 @@ Status PoseGraphSolver2D::factorizeOnce(bool full, bool allow_top_reorder, Index
                                         Index relinearized, bool* top_reordered) {
   *top_reordered = false;
   cholesky_.beginUpdate(new_columns, full);
+  // A full refactorization in the active order (a reordering reads the other buffer) keeps the
+  // structure of every column outside the etree paths of this update's factors.
+  if (full && variable_at == a_.variable_at[active_]) {
+    cholesky_.keepUnchangedStructures();
+    for (Index f = first_new_factor_; f < graph_.factors(); ++f) {
+      cholesky_.markStructureChanged(position_of[graph_.firstVariable(f)]);
+      const Index second = graph_.secondVariable(f);
+      if (second != kNoIndex) cholesky_.markStructureChanged(position_of[second]);
+    }
+  }
   if (!full && relinearized == 0 && options_.row_updates && reachesBack(position_of)) {
     Status s = addRowsOfAddedFactors(position_of);
     if (s == Status::Ok) s = cholesky_.finishRowUpdate();

@@ -127,6 +127,13 @@ class IncrementalCholesky {
   void beginUpdate(Index new_columns, bool full_refactor);
   // Column `column` of Lambda (or of eta) changed in this update.
   void markChanged(Index column);
+  // For a full refactorization in the order of the live factor (after beginUpdate(.., true)):
+  // every column keeps its structure, without the symbolic pass, unless it or a column in its
+  // subtree was marked by markStructureChanged() (a factor added in this update: relinearized
+  // factors change values, not structure). Structures only grow, so the others are exactly what
+  // the symbolic pass would give.
+  void keepUnchangedStructures();
+  void markStructureChanged(Index column);
   // Recomputes every column on the etree paths from the changed ones to the root, and their part
   // of d (L d = eta). variable_at[k] is the variable at column k, position_of its inverse.
   [[nodiscard]] Status factorize(const InformationSource<D>& source, const Index* variable_at,
@@ -218,6 +225,8 @@ class IncrementalCholesky {
                                       const Index* variable_at, const Index* position_of);
   Index addChildrenFill(Index k, std::uint32_t id, Index* rows, Index count);
   [[nodiscard]] Status stageStructure(Index k, Index* rows, Index count);
+  bool keepsStructure(Index k);
+  [[nodiscard]] Status stageOldStructure(Index k);
   void linkStagedChild(Index k, Index parent);
   void startColumn(Index k, const InformationSource<D>& source, const Index* variable_at,
                    const Index* position_of);
@@ -285,6 +294,7 @@ class IncrementalCholesky {
   std::uint32_t stamp_ = 0;
   std::uint32_t mark_id_ = 0;
   bool full_ = false;
+  bool keep_structures_ = false;  // full_ in the live order: see keepUnchangedStructures()
   bool reordered_ = false;
   Index top_size_ = 0;          // |A| of a reordered update
   Index top_base_ = 0;          // the first reordered position of A
