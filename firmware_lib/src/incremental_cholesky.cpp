@@ -359,15 +359,7 @@ Status IncrementalCholesky<D>::finishColumn(Index k) {
   a_.staged_diagonal[k] = l;
   blocks[0] = l_inv;
   // L(:,k) = C(:,k) L(k,k)^-T, and L(k,k)^-1 is lower-triangular: 6 multiply-adds per block row.
-  bool scaled = false;
-  if constexpr (D == 3) {
-    if (detail::cpuHasAvxFma()) {
-      detail::multiplyByTransposedLowerAvx(blocks + 1, size - 1, l_inv);
-      scaled = true;
-    }
-  }
-  for (Index i = 1; !scaled && i < size; ++i)
-    detail::multiplyByTransposedLower<D>(blocks[i], l_inv);
+  detail::multiplyBlocksByTransposedLower<D>(blocks + 1, size - 1, l_inv);
   a_.staged_d[k] = (l_inv * a_.staged_d[k]).eval();
   return Status::Ok;
 }

@@ -39,6 +39,17 @@ struct RowReflections {
   void apply(XL& x_l, XW* const* x_w) const {
     detail::applyRowReflections<D, M>(u, beta, x_l, x_w);
   }
+  // The same on one row (the right-hand side's), through the AVX2/FMA-compiled form on hosts that
+  // have it: outside such a function std::fma is a call into libm on x86-64. The same bits.
+  void applyToRow(Eigen::Matrix<double, 1, D>& x_l, Eigen::Matrix<double, 1, D>* const* x_w) const {
+    if constexpr (D == 3) {
+      if (detail::cpuHasAvxFma()) {
+        detail::applyRowReflectionsToRowAvx<M>(u, beta, x_l, x_w);
+        return;
+      }
+    }
+    apply(x_l, x_w);
+  }
 };
 
 // [L(r, k) W_0(r) ..] H_0 ... H_{D-1} for the rows r = rows[b], b >= 1, written to blocks[b] and
@@ -299,14 +310,7 @@ Status IncrementalCholesky<D>::rowUpdateColumn(Index k, const Index* pattern, In
     b_rows[m] = rhs[m].transpose();
     b_row_of[m] = &b_rows[m];
   }
-  bool reflected = false;
-  if constexpr (D == 3) {
-    if (detail::cpuHasAvxFma()) {
-      detail::applyRowReflectionsToRowAvx<M>(h.u, h.beta, d_row, b_row_of);
-      reflected = true;
-    }
-  }
-  if (!reflected) h.apply(d_row, b_row_of);
+  h.applyToRow(d_row, b_row_of);
   const Vector d_new = d_row.transpose();
   for (int m = 0; m < M; ++m) rhs[m] = b_rows[m].transpose();
   blocks[0] = detail::invertLowerTriangular<D>(l_new);

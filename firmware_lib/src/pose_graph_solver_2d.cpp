@@ -155,7 +155,6 @@ bool PoseGraphSolver2D::relinearizationDear(Index new_poses, Index relinearized)
   if (relinearizesMost(relinearized)) return true;
   if (options_.relinearize_full_cost_ratio <= 0.0 || full_products_ == 0) return false;
   Index* position_of = a_.position_of[active_];
-  for (Index v = cholesky_.columns(); v < cholesky_.columns() + new_poses; ++v) position_of[v] = v;
   cholesky_.beginUpdate(new_poses, false);
   markAffectedColumns(position_of, relinearized);
   const std::int64_t in_place = cholesky_.inPlaceProducts();
@@ -319,6 +318,7 @@ Status PoseGraphSolver2D::update(const PoseInput* poses, Index num_poses,
 // refactorization when that is cheaper (relinearizationDear).
 PoseGraphSolver2D::UpdatePlan PoseGraphSolver2D::planUpdate(Index new_poses) {
   UpdatePlan plan;
+  placeAddedVariablesLast();
   // (Counting the loop closures is skipped when the update has too few factors to be a burst.)
   const Index burst = options_.reorder_burst_loop_closures;
   plan.fresh_ordering = burst > 0 && graph_.factors() - first_new_factor_ > burst &&
@@ -345,14 +345,21 @@ PoseGraphSolver2D::UpdatePlan PoseGraphSolver2D::planUpdate(Index new_poses) {
   return plan;
 }
 
-// The factors of this update that reach back before the newest committed pose. (The added poses
-// take their positions at the end of the active order here, as the update in place gives them.)
-Index PoseGraphSolver2D::addedLoopClosures() {
-  Index* position_of = a_.position_of[active_];
-  for (Index v = cholesky_.columns(); v < graph_.variables(); ++v) position_of[v] = v;
+// The variables this update adds take the last positions of the active order, as the update in
+// place gives them (a reordering writes its own order to the other buffer). Once per update, before
+// anything reads their positions.
+void PoseGraphSolver2D::placeAddedVariablesLast() {
+  for (Index v = cholesky_.columns(); v < graph_.variables(); ++v) {
+    a_.variable_at[active_][v] = v;
+    a_.position_of[active_][v] = v;
+  }
+}
+
+// The factors of this update that reach back before the newest committed pose.
+Index PoseGraphSolver2D::addedLoopClosures() const {
   Index count = 0;
   for (Index f = first_new_factor_; f < graph_.factors(); ++f) {
-    if (factorReachesBack(f, position_of)) ++count;
+    if (factorReachesBack(f, a_.position_of[active_])) ++count;
   }
   return count;
 }
@@ -404,14 +411,9 @@ Status PoseGraphSolver2D::refactor(Index new_poses, const UpdatePlan& plan, bool
     if (!reorder) buffer = active_;  // no workspace for an ordering: keep the current one
     full = reorder;
   }
-  Index* variable_at = a_.variable_at[buffer];
-  Index* position_of = a_.position_of[buffer];
-  if (!reorder) {
-    for (Index v = n; v < n + new_poses; ++v) {
-      variable_at[v] = v;
-      position_of[v] = v;
-    }
-  }
+  // (In the active order the added variables are last already: placeAddedVariablesLast.)
+  const Index* variable_at = a_.variable_at[buffer];
+  const Index* position_of = a_.position_of[buffer];
   bool top_reordered = false;
   Status s = factorizeWithRetry(full, allow_reorder, new_poses, variable_at, position_of,
                                 relinearized, &top_reordered, r);

@@ -187,6 +187,20 @@ void subtractTransposedProductsAvx(Vec3& x, const Mat3* blocks, const Index* row
 // multiplyByTransposedLower<3>(blocks[b], l) for b in [0, count), the same bits.
 void multiplyByTransposedLowerAvx(Mat3* blocks, Index count, const Mat3& l);
 
+// multiplyByTransposedLower<D>(blocks[b], l) for b in [0, count), through the AVX2/FMA form on
+// hosts that have it (the same bits).
+template <int D>
+inline void multiplyBlocksByTransposedLower(Eigen::Matrix<double, D, D>* blocks, Index count,
+                                            const Eigen::Matrix<double, D, D>& l) {
+  if constexpr (D == 3) {
+    if (cpuHasAvxFma()) {
+      multiplyByTransposedLowerAvx(blocks, count, l);
+      return;
+    }
+  }
+  for (Index b = 0; b < count; ++b) multiplyByTransposedLower<D>(blocks[b], l);
+}
+
 // addBlockProduct(target[p], blocks[b], s) for b in [first, size), with p the place of rows[b]
 // among target_rows (ascending, holding every rows[b]; target_rows[0] is below them all).
 void addBlockProductsAvx(const Mat3* blocks, const Index* rows, Index first, Index size,

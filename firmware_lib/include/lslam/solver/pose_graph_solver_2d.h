@@ -117,7 +117,8 @@ class PoseGraphSolver2D {
   void takePreparedOrdering(Index* variable_at, Index* position_of) const;
   Index stageCandidates();
   Index stageEveryMovedVariable(double tolerance);
-  Index addedLoopClosures();
+  void placeAddedVariablesLast();
+  Index addedLoopClosures() const;
   Status refactor(Index new_poses, const UpdatePlan& plan, bool allow_reorder,
                   UpdateResult& result);
   Status factorizeWithRetry(bool full, bool allow_top_reorder, Index new_columns,
