@@ -161,13 +161,37 @@ TEST_CASE("the fused back-substitution step matches the dense transposed product
                                                    solution.data());
     CHECK((x - expected).cwiseAbs().maxCoeff() < 1e-12);
     if (lslam::detail::cpuHasAvxFma()) {
-      Eigen::Vector3d x_avx = x;
-      Eigen::Vector3d x_fused = x;
-      lslam::detail::subtractTransposedProductsAvx(x_avx, blocks.data(), rows.data(), size,
-                                                   solution.data());
-      lslam::detail::subtractTransposedProductsFused(x_fused, blocks.data(), rows.data(), size,
+      // The whole column step: the AVX kernel against the portable one, bit for bit, from an old
+      // entry that moved by more than the tolerance in one coordinate, and from one that did not.
+      const Eigen::Vector3d d = randomBlock<3>(rng).col(0);
+      Eigen::Vector3d portable = d;
+      lslam::detail::subtractTransposedProductsFused(portable, blocks.data(), rows.data(), size,
                                                      solution.data());
-      CHECK(std::equal(x_avx.data(), x_avx.data() + 3, x_fused.data()));
+      portable = (blocks[0].transpose() * portable).eval();
+      // The column's own entry, after every entry its rows read.
+      const Index k = positions;
+      std::vector<double> with_own = solution;
+      with_own.resize(static_cast<std::size_t>(kStride * (positions + 1)), 0.0);
+      for (const double offset : {0.0, 0.5}) {
+        std::vector<double> avx_solution = with_own;
+        Eigen::Vector3d old = portable;
+        old(n % 3) += offset - 0.25;
+        for (int r = 0; r < 3; ++r) avx_solution[kStride * k + r] = old(r);
+        const bool portable_moved = (portable - old).cwiseAbs().maxCoeff() > 0.3;
+        Eigen::Vector3d delta = Eigen::Vector3d::Constant(7.0);
+        const bool moved = lslam::detail::solveColumnAvx(d, blocks.data(), rows.data(), size,
+                                                         avx_solution.data(), k, 0.3, delta);
+        CHECK(moved == portable_moved);
+        CHECK(std::equal(delta.data(), delta.data() + 3, portable.data()));
+        CHECK(std::equal(avx_solution.data() + kStride * k, avx_solution.data() + kStride * k + 3,
+                         portable.data()));
+        CHECK(avx_solution[kStride * k + 3] == 0.0);  // the padding stays zero
+        // Every other entry is untouched.
+        for (Index p = 0; p < positions; ++p) {
+          CHECK(std::equal(avx_solution.data() + kStride * p,
+                           avx_solution.data() + kStride * (p + 1), solution.data() + kStride * p));
+        }
+      }
     }
   }
 }

@@ -36,13 +36,6 @@ LSLAM_TARGET_AVX_FMA inline __m256d addProductColumn(__m256d b0, __m256d b1, __m
   return _mm256_fmadd_pd(b2, _mm256_broadcast_sd(&s(2, c)), t);
 }
 
-// (lane 0 + lane 1) + lane 2.
-LSLAM_TARGET_AVX_FMA inline double sumOfLanes012(__m256d v) {
-  const __m128d low = _mm256_castpd256_pd128(v);
-  const __m128d high = _mm256_extractf128_pd(v, 1);
-  return _mm_cvtsd_f64(_mm_add_sd(_mm_add_sd(low, _mm_unpackhi_pd(low, low)), high));
-}
-
 // The reflections' coefficients where a row block's loop reads them: per reflection j the u
 // entries of factor 0 (c = 0, 1, 2), of factor 1, .., then beta(j). A local copy, because the
 // W and L stores may alias u for all the compiler knows: read through u, GCC kept each entry's
@@ -155,9 +148,19 @@ LSLAM_TARGET_AVX_FMA inline void addTransposedProduct(const double* b, const dou
   acc2 = _mm256_fmadd_pd(loadColumn(b, 2), y, acc2);
 }
 
-LSLAM_TARGET_AVX_FMA void subtractTransposedProductsAvx(Vec3& x, const Mat3* blocks,
-                                                        const Index* rows, Index size,
-                                                        const double* solution) {
+// Lanes 0-2 of a, b and c each summed as (lane 0 + lane 1) + lane 2, into lanes 0, 1 and 2 of the
+// result; lane 3 zero. Lane 3 of each input must be zero (a zero sums exactly).
+LSLAM_TARGET_AVX_FMA inline __m256d sumLanesOfThree(__m256d a, __m256d b, __m256d c) {
+  const __m256d ab = _mm256_hadd_pd(a, b);  // a0+a1, b0+b1, a2+a3, b2+b3
+  const __m256d cc = _mm256_hadd_pd(c, c);  // c0+c1, c0+c1, c2+c3, c2+c3
+  const __m256d sum =
+      _mm256_add_pd(_mm256_permute2f128_pd(ab, cc, 0x20), _mm256_permute2f128_pd(ab, cc, 0x31));
+  return _mm256_blend_pd(sum, _mm256_setzero_pd(), 0x8);
+}
+
+LSLAM_TARGET_AVX_FMA bool solveColumnAvx(const Vec3& d, const Mat3* blocks, const Index* rows,
+                                         Index size, double* solution, Index k, double tolerance,
+                                         Vec3& delta) {
   // Three named accumulators, not an array: GCC kept an array on the stack around the loop.
   __m256d acc0 = _mm256_setzero_pd();
   __m256d acc1 = _mm256_setzero_pd();
@@ -171,9 +174,26 @@ LSLAM_TARGET_AVX_FMA void subtractTransposedProductsAvx(Vec3& x, const Mat3* blo
     addTransposedProduct(blocks[1].data(), solution + kSolutionStride<3> * rows[1], acc0, acc1,
                          acc2);
   }
-  x(0) -= sumOfLanes012(acc0);
-  x(1) -= sumOfLanes012(acc1);
-  x(2) -= sumOfLanes012(acc2);
+  // Every lane 3 is zero: the solution's padding times a finite block entry.
+  const __m256d d_lanes = _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(d.data())),
+                                               _mm_load_sd(d.data() + 2), 1);
+  const __m256d r = _mm256_sub_pd(d_lanes, sumLanesOfThree(acc0, acc1, acc2));
+  // x(c) = column c of L(k,k)^-1 (blocks[0]) times r, unfused, as the portable form's product.
+  const double* inverse = blocks[0].data();
+  const __m256d x = sumLanesOfThree(_mm256_mul_pd(loadColumn(inverse, 0), r),
+                                    _mm256_mul_pd(loadColumn(inverse, 1), r),
+                                    _mm256_mul_pd(loadColumn(inverse, 2), r));
+  double* entry = solution + kSolutionStride<3> * k;
+  const __m256d change =
+      _mm256_andnot_pd(_mm256_set1_pd(-0.0), _mm256_sub_pd(x, _mm256_loadu_pd(entry)));
+  const int moved =
+      _mm256_movemask_pd(_mm256_cmp_pd(change, _mm256_set1_pd(tolerance), _CMP_GT_OQ));
+  // One store, whole: a child's load of this entry then forwards from it (a load that spans two
+  // stores waits until both reach the cache).
+  _mm256_storeu_pd(entry, x);
+  _mm_storeu_pd(delta.data(), _mm256_castpd256_pd128(x));
+  _mm_store_sd(delta.data() + 2, _mm256_extractf128_pd(x, 1));
+  return moved != 0;
 }
 
 LSLAM_TARGET_AVX_FMA void addBlockProductsAvx(const Mat3* blocks, const Index* rows, Index first,
@@ -258,8 +278,9 @@ void applyRowReflectionsFromAvx(const Mat3*, const Vec3&, const Mat3*, const Ind
                                 const Index*, Index, Mat3* const*) {
   LSLAM_ASSERT(false);
 }
-void subtractTransposedProductsAvx(Vec3&, const Mat3*, const Index*, Index, const double*) {
+bool solveColumnAvx(const Vec3&, const Mat3*, const Index*, Index, double*, Index, double, Vec3&) {
   LSLAM_ASSERT(false);
+  return false;
 }
 void multiplyByTransposedLowerAvx(Mat3*, Index, const Mat3&) {
   LSLAM_ASSERT(false);

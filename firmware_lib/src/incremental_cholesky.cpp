@@ -580,13 +580,9 @@ Index IncrementalCholesky<D>::backSubstitute(Vector* delta, const Index* variabl
   while (top > 0) {
     const Index k = stack[--top];
     const Index* rows = columnRows(k);
-    const Block* blocks = columnBlocks(k);
     const Index size = a_.count[k];
-    Eigen::Map<Vector> out = solutionEntry(k);
-    const Vector updated = detail::solveColumn<D>(a_.d[k], blocks, rows, size, a_.solution);
-    const bool moved = (updated - out).cwiseAbs().maxCoeff() > tolerance;
-    out = updated;
-    delta[variable_at[k]] = updated;
+    const bool moved = detail::solveColumnInPlace<D>(
+        a_.d[k], columnBlocks(k), rows, size, a_.solution, k, tolerance, delta[variable_at[k]]);
     a_.needs_solve[k] = 0;
     visited[solved++] = k;
     if (moved) mark[k] = changed;

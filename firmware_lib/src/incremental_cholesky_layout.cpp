@@ -68,10 +68,10 @@ template <int D>
 Index IncrementalCholesky<D>::solveInColumnOrder(Vector* delta, const Index* variable_at,
                                                  Index* visited) {
   for (Index k = n_ - 1; k >= 0; --k) {
-    const Vector x =
-        detail::solveColumn<D>(a_.d[k], columnBlocks(k), columnRows(k), a_.count[k], a_.solution);
-    solutionEntry(k) = x;
-    delta[variable_at[k]] = x;
+    // Every column is solved here, moved or not.
+    static_cast<void>(detail::solveColumnInPlace<D>(a_.d[k], columnBlocks(k), columnRows(k),
+                                                    a_.count[k], a_.solution, k, 0.0,
+                                                    delta[variable_at[k]]));
     a_.needs_solve[k] = 0;
     visited[n_ - 1 - k] = k;
   }

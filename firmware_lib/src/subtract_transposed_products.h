@@ -13,11 +13,11 @@ namespace detail {
 // so a row reads its y with one index (through the variables' order it took two dependent loads).
 // On a SIMD host the products are summed elementwise and reduced to a vector once per column; a
 // transposed block times a vector per block reduces across lanes every time (~10 % of a full
-// solve on city10000). For D = 3 on x86-64 that is the AVX2/FMA kernel (a block column per
-// register, ~3x fewer instructions than Eigen's SSE2 form, which leaves a lane of every column
-// over), or its std::fma twin with the same bits. On a scalar FPU (the Cortex-M) the direct form is
-// the fewer instructions (the elementwise one costs ~7 % more per odometry step there), so it
-// stays.
+// solve on city10000). For D = 3 on x86-64 that is the std::fma form, whose bits the AVX2/FMA
+// kernel of the whole column step gives (solveColumnAvx: a block column per register, ~3x fewer
+// instructions than Eigen's SSE2 form, which leaves a lane of every column over). On a scalar FPU
+// (the Cortex-M) the direct form is the fewer instructions (the elementwise one costs ~7 % more per
+// odometry step there), so it stays.
 template <int D>
 inline void subtractTransposedProducts(Eigen::Matrix<double, D, 1>& x,
                                        const Eigen::Matrix<double, D, D>* blocks, const Index* rows,
@@ -26,11 +26,7 @@ inline void subtractTransposedProducts(Eigen::Matrix<double, D, 1>& x,
   constexpr Index kStride = kSolutionStride<D>;
 #if defined(__x86_64__)
   if constexpr (D == 3) {
-    if (cpuHasAvxFma()) {
-      subtractTransposedProductsAvx(x, blocks, rows, size, solution);
-    } else {
-      subtractTransposedProductsFused(x, blocks, rows, size, solution);
-    }
+    subtractTransposedProductsFused(x, blocks, rows, size, solution);
     return;
   }
 #endif
@@ -61,6 +57,26 @@ inline Eigen::Matrix<double, D, 1> solveColumn(const Eigen::Matrix<double, D, 1>
   Eigen::Matrix<double, D, 1> x = d;
   subtractTransposedProducts<D>(x, blocks, rows, size, solution);
   return blocks[0].transpose() * x;
+}
+
+// Column k's whole step of the solve: x(k) (solveColumn) into its entry of the solution by
+// position and into `delta`; returns whether it moved from the entry's old value by more than
+// `tolerance` (max-norm). On an x86-64 host with AVX2/FMA one kernel does it all, with x kept in
+// registers from the products to the stores (solveColumnAvx, the same bits).
+template <int D>
+inline bool solveColumnInPlace(const Eigen::Matrix<double, D, 1>& d,
+                               const Eigen::Matrix<double, D, D>* blocks, const Index* rows,
+                               Index size, double* solution, Index k, double tolerance,
+                               Eigen::Matrix<double, D, 1>& delta) {
+  if constexpr (D == 3) {
+    if (cpuHasAvxFma()) return solveColumnAvx(d, blocks, rows, size, solution, k, tolerance, delta);
+  }
+  Eigen::Map<Eigen::Matrix<double, D, 1>> entry(solution + kSolutionStride<D> * k);
+  const Eigen::Matrix<double, D, 1> x = solveColumn<D>(d, blocks, rows, size, solution);
+  const bool moved = (x - entry).cwiseAbs().maxCoeff() > tolerance;
+  entry = x;
+  delta = x;
+  return moved;
 }
 
 }  // namespace detail

@@ -180,9 +180,12 @@ LSLAM_TARGET_AVX_FMA void applyRowReflectionsToRowAvx(const Mat3* u, const Vec3&
                                                       Eigen::Matrix<double, 1, 3>& x_l,
                                                       Eigen::Matrix<double, 1, 3>* const* x_w);
 
-// subtractTransposedProductsFused, the same bits.
-void subtractTransposedProductsAvx(Vec3& x, const Mat3* blocks, const Index* rows, Index size,
-                                   const double* solution);
+// One column's whole step of the back-substitution (detail::solveColumnInPlace for D = 3 on an
+// x86-64 host with subtractTransposedProductsFused, the same bits): x = L(k,k)^-T (d - sum_{i >= 1}
+// blocks[i]^T y_i), written to the solution entry of position k (fourth lane zero) and to delta;
+// returns whether x moved from the entry's old value by more than tolerance (max-norm).
+bool solveColumnAvx(const Vec3& d, const Mat3* blocks, const Index* rows, Index size,
+                    double* solution, Index k, double tolerance, Vec3& delta);
 
 // multiplyByTransposedLower<3>(blocks[b], l) for b in [0, count), the same bits.
 void multiplyByTransposedLowerAvx(Mat3* blocks, Index count, const Mat3& l);
