@@ -172,15 +172,16 @@ TEST_CASE("the fused back-substitution step matches the dense transposed product
       const Index k = positions;
       std::vector<double> with_own = solution;
       with_own.resize(static_cast<std::size_t>(kStride * (positions + 1)), 0.0);
-      for (const double offset : {0.0, 0.5}) {
+      for (const double shift : {0.1, -0.5}) {  // within the tolerance 0.3, and past it
         std::vector<double> avx_solution = with_own;
         Eigen::Vector3d old = portable;
-        old(n % 3) += offset - 0.25;
+        old(n % 3) += shift;
         for (int r = 0; r < 3; ++r) avx_solution[kStride * k + r] = old(r);
         const bool portable_moved = (portable - old).cwiseAbs().maxCoeff() > 0.3;
         Eigen::Vector3d delta = Eigen::Vector3d::Constant(7.0);
         const bool moved = lslam::detail::solveColumnAvx(d, blocks.data(), rows.data(), size,
                                                          avx_solution.data(), k, 0.3, delta);
+        CHECK(portable_moved == (shift < 0.0));
         CHECK(moved == portable_moved);
         CHECK(std::equal(delta.data(), delta.data() + 3, portable.data()));
         CHECK(std::equal(avx_solution.data() + kStride * k, avx_solution.data() + kStride * k + 3,
