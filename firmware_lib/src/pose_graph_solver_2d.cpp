@@ -296,7 +296,7 @@ Status PoseGraphSolver2D::update(const PoseInput* poses, Index num_poses,
     return s;
   }
   if (plan.relinearize_now) {
-    clearRelinearizationCandidates();
+    keepWaitingCandidates();
     updates_since_relinearization_ = 0;
   } else {
     ++updates_since_relinearization_;
@@ -331,8 +331,17 @@ PoseGraphSolver2D::UpdatePlan PoseGraphSolver2D::planUpdate(Index new_poses) {
   plan.relinearize_now = relinearization_urgent_ || plan.reorder_now ||
                          (options_.relinearize_skip > 0 &&
                           updates_since_relinearization_ + 1 >= options_.relinearize_skip);
-  plan.relinearized = plan.relinearize_now ? stageCandidates() : 0;
+  // Outside a reordering only the candidates past relinearize_partial_threshold (see there).
+  const double threshold = options_.relinearize_threshold;
+  const double first = plan.reorder_now ? threshold : std::max(threshold, partialThreshold());
+  plan.relinearized =
+      plan.relinearize_now ? stageCandidates(first, std::numeric_limits<double>::infinity(), 0) : 0;
   plan.refactor_fully = !plan.reorder_now && relinearizationDear(new_poses, plan.relinearized);
+  if (plan.refactor_fully && first > threshold && (orderingFresh() || !preparesOrderingAhead())) {
+    // Every column is refactorized anyway: the waiting candidates come along for their
+    // linearization alone.
+    plan.relinearized = stageCandidates(threshold, first, plan.relinearized);
+  }
   if (plan.refactor_fully && !orderingFresh() && preparesOrderingAhead()) {
     // A full refactorization in a stale ordering is nearly the price of a reordering: this update
     // only adds its factors, and the next one reorders and relinearizes (the candidates wait).
@@ -364,16 +373,23 @@ Index PoseGraphSolver2D::addedLoopClosures() const {
   return count;
 }
 
-// The variables the last solve found beyond the relinearization threshold.
-Index PoseGraphSolver2D::stageCandidates() {
-  Index count = 0;
+// The candidates whose delta lies in (above, at_most] (max-norm), staged for relinearization and
+// listed in a_.marked from position `count` on; returns the new count.
+Index PoseGraphSolver2D::stageCandidates(double above, double at_most, Index count) {
   for (Index i = 0; i < relinearize_count_; ++i) {
     const Index v = a_.relinearize_list[i];
-    if (a_.delta[v].cwiseAbs().maxCoeff() <= options_.relinearize_threshold) continue;
+    const double moved = a_.delta[v].cwiseAbs().maxCoeff();
+    if (!(moved > above && moved <= at_most)) continue;
     graph_.relinearize(v, graph_.linearizationPoint(v).retract(a_.delta[v]));
     a_.marked[count++] = v;
   }
   return count;
+}
+
+// relinearize_partial_threshold, or relinearize_threshold where it is off (0).
+double PoseGraphSolver2D::partialThreshold() const {
+  return options_.relinearize_partial_threshold > 0.0 ? options_.relinearize_partial_threshold
+                                                      : options_.relinearize_threshold;
 }
 
 Index PoseGraphSolver2D::stageEveryMovedVariable(double tolerance) {
@@ -663,6 +679,26 @@ void PoseGraphSolver2D::clearRelinearizationCandidates() {
   for (Index i = 0; i < relinearize_count_; ++i) a_.relinearize_flag[a_.relinearize_list[i]] = 0;
   relinearize_count_ = 0;
   relinearization_urgent_ = false;
+}
+
+// After an update that relinearized: the relinearized candidates restarted from delta = 0 and
+// leave the list; those it left waiting (outside a reordering, below
+// relinearize_partial_threshold) stay candidates, since a partial solve may not visit them again.
+void PoseGraphSolver2D::keepWaitingCandidates() {
+  Index kept = 0;
+  bool urgent = false;
+  for (Index i = 0; i < relinearize_count_; ++i) {
+    const Index v = a_.relinearize_list[i];
+    const double moved = a_.delta[v].cwiseAbs().maxCoeff();
+    if (!(moved > options_.relinearize_threshold)) {
+      a_.relinearize_flag[v] = 0;
+      continue;
+    }
+    a_.relinearize_list[kept++] = v;
+    urgent = urgent || moved > options_.relinearize_urgent_threshold;
+  }
+  relinearize_count_ = kept;
+  relinearization_urgent_ = urgent;
 }
 
 // Reads each visited variable's delta from the factor's copy by position, which the solve has just

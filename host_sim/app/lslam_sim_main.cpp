@@ -32,7 +32,7 @@ int usage() {
                "usage: lslam-sim run DATASET [--order online|file] [--solve-every N] [--json]\n"
                "                 [--csv STEPS.csv] [--out ESTIMATE.g2o] [--report REPORT.json]\n"
                "                 [--relinearize-threshold T] [--relinearize-skip N]\n"
-               "                 [--relinearize-urgent T]\n"
+               "                 [--relinearize-urgent T] [--relinearize-partial T]\n"
                "                 [--backsub-tolerance T]\n"
                "                 [--reorder-growth G] [--reorder-excess R]\n"
                "                 [--reorder-path COLUMNS] [--reorder-burst LOOP_CLOSURES]\n"
@@ -233,6 +233,8 @@ int main(int argc, char** argv) {
         args.solver.relinearize_threshold = std::atof(argv[++i]);
       } else if (a == "--relinearize-urgent" && has_value) {
         args.solver.relinearize_urgent_threshold = std::atof(argv[++i]);
+      } else if (a == "--relinearize-partial" && has_value) {
+        args.solver.relinearize_partial_threshold = std::atof(argv[++i]);
       } else if (a == "--relinearize-skip" && has_value) {
         args.solver.relinearize_skip = static_cast<lslam::Index>(std::atol(argv[++i]));
       } else if (a == "--backsub-tolerance" && has_value) {

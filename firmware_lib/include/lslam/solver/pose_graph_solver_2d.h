@@ -115,7 +115,8 @@ class PoseGraphSolver2D {
   bool prepareOrdering();
   bool preparesOrderingAhead() const;
   void takePreparedOrdering(Index* variable_at, Index* position_of) const;
-  Index stageCandidates();
+  Index stageCandidates(double above, double at_most, Index count);
+  double partialThreshold() const;
   Index stageEveryMovedVariable(double tolerance);
   void placeAddedVariablesLast();
   Index addedLoopClosures() const;
@@ -134,6 +135,7 @@ class PoseGraphSolver2D {
   [[nodiscard]] Status addRowsOfAddedFactors(const Index* position_of);
   void noteRelinearizationCandidates(Index visited);
   void clearRelinearizationCandidates();
+  void keepWaitingCandidates();
 
   SolverArrays a_;
   PoseGraph2D graph_;
