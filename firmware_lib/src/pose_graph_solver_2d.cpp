@@ -374,7 +374,7 @@ Index PoseGraphSolver2D::addedLoopClosures() const {
 }
 
 // The candidates whose delta lies in (above, at_most] (max-norm), staged for relinearization and
-// listed in a_.marked from position `count` on; returns the new count.
+// listed in a_.marked from position `count` on; returns the count after them.
 Index PoseGraphSolver2D::stageCandidates(double above, double at_most, Index count) {
   for (Index i = 0; i < relinearize_count_; ++i) {
     const Index v = a_.relinearize_list[i];
