@@ -711,6 +711,10 @@ void PoseGraphSolver2D::noteRelinearizationCandidates(Index visited) {
     const double moved = cholesky_.solutionAt(k).cwiseAbs().maxCoeff();
     if (!(moved > options_.relinearize_threshold)) continue;
     const Index v = variable_at[k];
+    // Only a variable that becomes a candidate makes the relinearization urgent: one that was
+    // waiting already and moved on past the urgent bar waits for the next relinearization. (Urgency
+    // from those too: manhattanOlson3500 172 -> 257 relinearizations and 96 -> 138 full
+    // refactorizations, city10000 244 -> 336, for no better chi2; README "Measured".)
     if (a_.relinearize_flag[v] != 0) continue;
     a_.relinearize_flag[v] = 1;
     a_.relinearize_list[relinearize_count_++] = v;
