@@ -378,7 +378,10 @@ void checkRelinearizedSet(const std::vector<Vec3>& before, const PoseGraphSolver
   // A variable is a candidate exactly when its delta is past relinearize_threshold: it was noted
   // by the solve that moved it there, and stays one until relinearized.
   const bool takes_all = r.reordered || r.refactored_fully;
-  const double bar = takes_all ? o.relinearize_threshold : o.relinearize_partial_threshold;
+  // The partial bar never lies above the urgent one: the candidate that made the update urgent is
+  // always taken.
+  const double partial = std::min(o.relinearize_partial_threshold, o.relinearize_urgent_threshold);
+  const double bar = takes_all ? o.relinearize_threshold : partial;
   Index expected = 0;
   int waiting = 0;
   for (std::size_t v = 0; v < before.size(); ++v) {
@@ -404,35 +407,40 @@ void checkRelinearizedSet(const std::vector<Vec3>& before, const PoseGraphSolver
 TEST_CASE(
     "an update that relinearizes without reordering takes the candidates past "
     "relinearize_partial_threshold; the others wait for a reordering or a full refactorization") {
-  RelinearizationCheck seen;
-  for (std::uint32_t seed = 60; seed < 66; ++seed) {
-    CAPTURE(seed);
-    const Dataset2D d = syntheticWorld(390, seed);
-    const std::vector<Step> steps = buildSteps(d, StepOrder::Online);
-    SolverOptions options;
-    options.solve_after_update = false;
-    // A coarser solve visits fewer columns, so the next solves do not note every waiting candidate
-    // again: forgetting them instead of keeping them fails this test.
-    options.backsubstitution_tolerance = 1e-3;
-    auto solver = std::make_unique<SmallSolver>(options);
-    Estimate2D initial;
-    for (std::size_t s = 0; s < steps.size(); ++s) {
-      CAPTURE(s);
-      std::vector<Vec3> before;
-      for (Index v = 0; v < solver->poses(); ++v) before.push_back(solver->deltaAt(v));
-      lslam::UpdateResult r;
-      REQUIRE(feedStep(*solver, d, steps[s], initial, &r) == Status::Ok);
-      checkRelinearizedSet(before, *solver, r, seen);
-      solver->solve(false);
+  // The default bar, and one set above relinearize_urgent_threshold (which then bounds it).
+  for (const double partial_threshold : {SolverOptions{}.relinearize_partial_threshold, 0.5}) {
+    CAPTURE(partial_threshold);
+    RelinearizationCheck seen;
+    for (std::uint32_t seed = 60; seed < 66; ++seed) {
+      CAPTURE(seed);
+      const Dataset2D d = syntheticWorld(390, seed);
+      const std::vector<Step> steps = buildSteps(d, StepOrder::Online);
+      SolverOptions options;
+      options.relinearize_partial_threshold = partial_threshold;
+      options.solve_after_update = false;
+      // A coarser solve visits fewer columns, so the next solves do not note every waiting
+      // candidate again: forgetting them instead of keeping them fails this test.
+      options.backsubstitution_tolerance = 1e-3;
+      auto solver = std::make_unique<SmallSolver>(options);
+      Estimate2D initial;
+      for (std::size_t s = 0; s < steps.size(); ++s) {
+        CAPTURE(s);
+        std::vector<Vec3> before;
+        for (Index v = 0; v < solver->poses(); ++v) before.push_back(solver->deltaAt(v));
+        lslam::UpdateResult r;
+        REQUIRE(feedStep(*solver, d, steps[s], initial, &r) == Status::Ok);
+        checkRelinearizedSet(before, *solver, r, seen);
+        solver->solve(false);
+      }
+      // The waiting costs nothing at the end: the batch optimum within the datasets' bound.
+      const BatchResult batch = solveBatch2D(d, initial);
+      REQUIRE(batch.converged);
+      CHECK(chi2G2o(d, estimateOf(*solver)) <= batch.chi2 * 1.001);
     }
-    // The waiting costs nothing at the end: the batch optimum within the datasets' bound.
-    const BatchResult batch = solveBatch2D(d, initial);
-    REQUIRE(batch.converged);
-    CHECK(chi2G2o(d, estimateOf(*solver)) <= batch.chi2 * 1.001);
+    // Both kinds of update happened, with candidates left waiting.
+    CHECK(seen.partial_updates_with_waiting > 0);
+    CHECK(seen.updates_taking_all > 0);
   }
-  // Both kinds of update happened, with candidates left waiting.
-  CHECK(seen.partial_updates_with_waiting > 0);
-  CHECK(seen.updates_taking_all > 0);
 }
 
 TEST_CASE("optimize() reaches the batch optimum") {

@@ -386,10 +386,13 @@ Index PoseGraphSolver2D::stageCandidates(double above, double at_most, Index cou
   return count;
 }
 
-// relinearize_partial_threshold, or relinearize_threshold where it is off (0).
+// relinearize_partial_threshold, or relinearize_threshold where it is off (0); never above
+// relinearize_urgent_threshold, so that the candidate that made an update urgent is always taken
+// (above it, an urgent update could relinearize nothing and stay urgent).
 double PoseGraphSolver2D::partialThreshold() const {
-  return options_.relinearize_partial_threshold > 0.0 ? options_.relinearize_partial_threshold
-                                                      : options_.relinearize_threshold;
+  const double partial = options_.relinearize_partial_threshold;
+  if (!(partial > 0.0)) return options_.relinearize_threshold;
+  return std::min(partial, options_.relinearize_urgent_threshold);
 }
 
 Index PoseGraphSolver2D::stageEveryMovedVariable(double tolerance) {

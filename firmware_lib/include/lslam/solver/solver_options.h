@@ -20,12 +20,13 @@ struct SolverOptions {
   double relinearize_urgent_threshold = 0.1;
   Index relinearize_skip = 0;
   // An update that relinearizes without reordering (an urgent candidate, or relinearize_skip)
-  // takes only the candidates past this; the others wait, still candidates, for the next
-  // reordering (free there) or the next such update. If the update refactorizes every column
-  // anyway (most variables relinearized), it takes every candidate. Fewer variables relinearized
-  // at once keep more of these updates in place, below reorder_relinearized_share:
-  // manhattanOlson3500's full refactorizations 118 -> 99, city10000's 236 -> 184; final chi2
-  // +0.0007 -> +0.0012 % and +0.0002 % (README "Measured"). 0: every candidate.
+  // takes only the candidates past this (at most relinearize_urgent_threshold); the others wait,
+  // still candidates, for the next reordering (free there) or the next such update. If the update
+  // refactorizes every column anyway (most variables relinearized), it takes every candidate.
+  // Fewer variables relinearized at once keep more of these updates in place, below
+  // reorder_relinearized_share: manhattanOlson3500's full refactorizations 118 -> 96, city10000's
+  // 236 -> 179; final chi2 +0.0007 -> +0.0012 % and +0.0002 % (README "Measured"). 0: every
+  // candidate.
   double relinearize_partial_threshold = 0.05;
   // Partial back-substitution: a subtree of the elimination tree is not re-solved when nothing it
   // depends on moved by more than this (max-norm). 0 gives the exact solution of L^T x = d.
