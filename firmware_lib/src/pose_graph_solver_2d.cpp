@@ -323,7 +323,7 @@ PoseGraphSolver2D::UpdatePlan PoseGraphSolver2D::planUpdate(Index new_poses) {
   const Index burst = options_.reorder_burst_loop_closures;
   plan.fresh_ordering = burst > 0 && graph_.factors() - first_new_factor_ > burst &&
                         graph_.variables() >= options_.reorder_min_variables &&
-                        addedLoopClosures() > burst;
+                        addedLoopClosures(a_.position_of[active_]) > burst;
   const bool ordering_stale = ordering_prepared_ || plan.fresh_ordering || wantsReorder();
   plan.prepare_ordering =
       ordering_stale && !ordering_prepared_ && !plan.fresh_ordering && preparesOrderingAhead();
@@ -333,15 +333,10 @@ PoseGraphSolver2D::UpdatePlan PoseGraphSolver2D::planUpdate(Index new_poses) {
                           updates_since_relinearization_ + 1 >= options_.relinearize_skip);
   // Outside a reordering only the candidates past relinearize_partial_threshold (see there).
   const double threshold = options_.relinearize_threshold;
-  const double first = plan.reorder_now ? threshold : std::max(threshold, partialThreshold());
+  const double first = plan.reorder_now ? threshold : partialThreshold();
   plan.relinearized =
       plan.relinearize_now ? stageCandidates(first, std::numeric_limits<double>::infinity(), 0) : 0;
   plan.refactor_fully = !plan.reorder_now && relinearizationDear(new_poses, plan.relinearized);
-  if (plan.refactor_fully && first > threshold && (orderingFresh() || !preparesOrderingAhead())) {
-    // Every column is refactorized anyway: the waiting candidates come along for their
-    // linearization alone.
-    plan.relinearized = stageCandidates(threshold, first, plan.relinearized);
-  }
   if (plan.refactor_fully && !orderingFresh() && preparesOrderingAhead()) {
     // A full refactorization in a stale ordering is nearly the price of a reordering: this update
     // only adds its factors, and the next one reorders and relinearizes (the candidates wait).
@@ -350,6 +345,10 @@ PoseGraphSolver2D::UpdatePlan PoseGraphSolver2D::planUpdate(Index new_poses) {
     plan.relinearize_now = false;
     plan.refactor_fully = false;
     plan.prepare_ordering = true;  // (a prepared ordering would have been applied: not stale)
+  } else if (plan.refactor_fully && first > threshold) {
+    // Every column is refactorized anyway: the waiting candidates come along for their
+    // linearization alone.
+    plan.relinearized = stageCandidates(threshold, first, plan.relinearized);
   }
   return plan;
 }
@@ -365,10 +364,10 @@ void PoseGraphSolver2D::placeAddedVariablesLast() {
 }
 
 // The factors of this update that reach back before the newest committed pose.
-Index PoseGraphSolver2D::addedLoopClosures() const {
+Index PoseGraphSolver2D::addedLoopClosures(const Index* position_of) const {
   Index count = 0;
   for (Index f = first_new_factor_; f < graph_.factors(); ++f) {
-    if (factorReachesBack(f, a_.position_of[active_])) ++count;
+    if (factorReachesBack(f, position_of)) ++count;
   }
   return count;
 }
@@ -386,13 +385,15 @@ Index PoseGraphSolver2D::stageCandidates(double above, double at_most, Index cou
   return count;
 }
 
-// relinearize_partial_threshold, or relinearize_threshold where it is off (0); never above
-// relinearize_urgent_threshold, so that the candidate that made an update urgent is always taken
-// (above it, an urgent update could relinearize nothing and stay urgent).
+// The bar of a relinearization outside a reordering: relinearize_partial_threshold, or
+// relinearize_threshold where it is off (0) or lower; never above relinearize_urgent_threshold,
+// so that the candidate that made an update urgent is always taken (above it, an urgent update
+// could relinearize nothing and stay urgent).
 double PoseGraphSolver2D::partialThreshold() const {
   const double partial = options_.relinearize_partial_threshold;
   if (!(partial > 0.0)) return options_.relinearize_threshold;
-  return std::min(partial, options_.relinearize_urgent_threshold);
+  return std::max(options_.relinearize_threshold,
+                  std::min(partial, options_.relinearize_urgent_threshold));
 }
 
 Index PoseGraphSolver2D::stageEveryMovedVariable(double tolerance) {
@@ -403,6 +404,14 @@ Index PoseGraphSolver2D::stageEveryMovedVariable(double tolerance) {
     a_.marked[count++] = v;
   }
   return count;
+}
+
+// A fresh COLAMD ordering of the staged graph (this update's factors in it) into the inactive
+// buffer; `prepared_overwritten` tells whether it wrote over a prepared ordering.
+bool PoseGraphSolver2D::computeFreshOrdering(bool* prepared_overwritten) {
+  const int other = 1 - active_;
+  *prepared_overwritten = ordering_prepared_;
+  return computeOrdering(a_.variable_at[other], a_.position_of[other]) == Status::Ok;
 }
 
 // Factorizes the staged graph change (added poses at the end, relinearized variables in a_.marked),
@@ -423,9 +432,7 @@ Status PoseGraphSolver2D::refactor(Index new_poses, const UpdatePlan& plan, bool
     if (ordering_prepared_ && !plan.fresh_ordering) {
       takePreparedOrdering(a_.variable_at[buffer], a_.position_of[buffer]);
     } else {
-      prepared_overwritten = ordering_prepared_;
-      reorder = fresh =
-          computeOrdering(a_.variable_at[buffer], a_.position_of[buffer]) == Status::Ok;
+      reorder = fresh = computeFreshOrdering(&prepared_overwritten);
     }
     if (!reorder) buffer = active_;  // no workspace for an ordering: keep the current one
     full = reorder;
@@ -441,8 +448,7 @@ Status PoseGraphSolver2D::refactor(Index new_poses, const UpdatePlan& plan, bool
     // closures, say from a file that lists them after every pose): a fresh order over every
     // factor, this update's included, usually fits.
     const int other = 1 - active_;
-    prepared_overwritten = ordering_prepared_;
-    fresh = computeOrdering(a_.variable_at[other], a_.position_of[other]) == Status::Ok;
+    fresh = computeFreshOrdering(&prepared_overwritten);
     if (fresh) {
       buffer = other;
       reorder = full = true;
@@ -538,11 +544,8 @@ Status PoseGraphSolver2D::factorizeOnce(bool full, bool allow_top_reorder, Index
   // structure of every column outside the etree paths of this update's factors.
   if (full && variable_at == a_.variable_at[active_]) {
     cholesky_.keepUnchangedStructures();
-    for (Index f = first_new_factor_; f < graph_.factors(); ++f) {
-      cholesky_.markStructureChanged(position_of[graph_.firstVariable(f)]);
-      const Index second = graph_.secondVariable(f);
-      if (second != kNoIndex) cholesky_.markStructureChanged(position_of[second]);
-    }
+    visitAddedFactorColumns(position_of,
+                            [this](Index column) { cholesky_.markStructureChanged(column); });
   }
   if (!full && relinearized == 0 && options_.row_updates && reachesBack(position_of)) {
     Status s = addRowsOfAddedFactors(position_of);
@@ -594,10 +597,7 @@ Index PoseGraphSolver2D::collectLastColumns(const Index* position_of, Index new_
       a_.last_list[count++] = position;
     }
   };
-  for (Index f = first_new_factor_; f < graph_.factors(); ++f) {
-    add(position_of[graph_.firstVariable(f)]);
-    if (graph_.secondVariable(f) != kNoIndex) add(position_of[graph_.secondVariable(f)]);
-  }
+  visitAddedFactorColumns(position_of, add);
   if (first_new > 0) add(position_of[first_new - 1]);
   std::sort(a_.last_list, a_.last_list + count);
   for (Index i = 0; i < count; ++i) a_.in_last[a_.last_list[i]] = 0;
@@ -610,10 +610,7 @@ Index PoseGraphSolver2D::collectLastColumns(const Index* position_of, Index new_
 // two columns, and recomputing those is cheaper than whitening and rotating (on the Cortex-M7
 // about 6,100 against 9,000 instructions per step).
 bool PoseGraphSolver2D::reachesBack(const Index* position_of) const {
-  for (Index f = first_new_factor_; f < graph_.factors(); ++f) {
-    if (factorReachesBack(f, position_of)) return true;
-  }
-  return false;
+  return addedLoopClosures(position_of) > 0;
 }
 
 // Whether factor f touches a column before the newest committed one.
@@ -655,12 +652,7 @@ Status PoseGraphSolver2D::addRowsOfAddedFactors(const Index* position_of) {
 }
 
 void PoseGraphSolver2D::markAffectedColumns(const Index* position_of, Index relinearized) {
-  for (Index f = first_new_factor_; f < graph_.factors(); ++f) {
-    cholesky_.markChanged(position_of[graph_.firstVariable(f)]);
-    if (graph_.secondVariable(f) != kNoIndex) {
-      cholesky_.markChanged(position_of[graph_.secondVariable(f)]);
-    }
-  }
+  visitAddedFactorColumns(position_of, [this](Index column) { cholesky_.markChanged(column); });
   // A relinearized variable changes its own column of Lambda and those of its neighbours.
   ColumnMarker marker(cholesky_, position_of);
   for (Index i = 0; i < relinearized; ++i) {

@@ -119,7 +119,8 @@ class PoseGraphSolver2D {
   double partialThreshold() const;
   Index stageEveryMovedVariable(double tolerance);
   void placeAddedVariablesLast();
-  Index addedLoopClosures() const;
+  Index addedLoopClosures(const Index* position_of) const;
+  bool computeFreshOrdering(bool* prepared_overwritten);
   Status refactor(Index new_poses, const UpdatePlan& plan, bool allow_reorder,
                   UpdateResult& result);
   Status factorizeWithRetry(bool full, bool allow_top_reorder, Index new_columns,
@@ -131,6 +132,16 @@ class PoseGraphSolver2D {
   Index collectLastColumns(const Index* position_of, Index new_columns);
   void markAffectedColumns(const Index* position_of, Index relinearized);
   bool reachesBack(const Index* position_of) const;
+  // Calls visit(column) for the column of each variable of this update's factors, in `position_of`
+  // (a column once per factor that holds it).
+  template <class Visit>
+  void visitAddedFactorColumns(const Index* position_of, Visit visit) const {
+    for (Index f = first_new_factor_; f < graph_.factors(); ++f) {
+      visit(position_of[graph_.firstVariable(f)]);
+      const Index second = graph_.secondVariable(f);
+      if (second != kNoIndex) visit(position_of[second]);
+    }
+  }
   bool factorReachesBack(Index f, const Index* position_of) const;
   [[nodiscard]] Status addRowsOfAddedFactors(const Index* position_of);
   void noteRelinearizationCandidates(Index visited);
