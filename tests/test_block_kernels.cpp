@@ -312,7 +312,7 @@ TEST_CASE("the AVX block kernels compute the portable forms' bits") {
     std::vector<Eigen::Matrix3d> target(target_rows.size());
     for (auto& t : target) t = randomBlock<3>(rng);
     const Eigen::Matrix3d s = randomBlock<3>(rng);
-    const Index first = std::min<Index>(1 + n % 3, size - 1);
+    const Index first = std::min<Index>(n % 4, size - 1);  // 0: from the diagonal block
 
     std::vector<Eigen::Matrix3d> expected = target;
     for (Index b = first; b < size; ++b) {
@@ -325,28 +325,28 @@ TEST_CASE("the AVX block kernels compute the portable forms' bits") {
     for (std::size_t p = 0; p < target.size(); ++p) CHECK(sameBits(target[p], expected[p]));
 
     // Several source columns at once (a supernode): each target block takes their products in
-    // column order, as the same number of single-column passes would give it.
+    // column order, each column's multiplier its own block at `first` (negated, transposed), as
+    // the same number of single-column passes with that multiplier would give it.
     const Index width = 1 + n % 8;
     std::vector<std::vector<Eigen::Matrix3d>> columns(width,
                                                       std::vector<Eigen::Matrix3d>(rows.size()));
-    std::vector<Eigen::Matrix3d> s_of(width);
     std::vector<const Eigen::Matrix3d*> column_of(width);
     for (Index m = 0; m < width; ++m) {
       for (auto& b : columns[m]) b = randomBlock<3>(rng);
-      s_of[m] = randomBlock<3>(rng);
       column_of[m] = columns[m].data();
     }
     std::vector<Eigen::Matrix3d> multi_expected = target;
     for (Index m = 0; m < width; ++m) {
+      const Eigen::Matrix3d s_m = -columns[m][first].transpose();
       for (Index b = first; b < size; ++b) {
         const Index p =
             static_cast<Index>(std::lower_bound(target_rows.begin(), target_rows.end(), rows[b]) -
                                target_rows.begin());
-        lslam::detail::addBlockProduct<3>(multi_expected[p], columns[m][b], s_of[m]);
+        lslam::detail::addBlockProduct<3>(multi_expected[p], columns[m][b], s_m);
       }
     }
-    lslam::detail::addBlockProductsOfColumnsAvx(column_of.data(), s_of.data(), width, rows.data(),
-                                                first, size, target_rows.data(), target.data());
+    lslam::detail::subtractOuterProductsOfColumnsAvx(column_of.data(), width, rows.data(), first,
+                                                     size, target_rows.data(), target.data());
     for (std::size_t p = 0; p < target.size(); ++p) CHECK(sameBits(target[p], multi_expected[p]));
 
     checkAvxReflections<1>(rng, rows, blocks, target_rows.size(), n);

@@ -199,7 +199,7 @@ LSLAM_TARGET_AVX_FMA bool solveColumnAvx(const Vec3& d, const Mat3* blocks, cons
 LSLAM_TARGET_AVX_FMA void addBlockProductsAvx(const Mat3* blocks, const Index* rows, Index first,
                                               Index size, const Mat3& s, const Index* target_rows,
                                               Mat3* target) {
-  Index p = 1;
+  Index p = 0;
   for (Index b = first; b < size; ++b) {
     while (target_rows[p] < rows[b]) ++p;
     LSLAM_DEBUG_ASSERT(target_rows[p] == rows[b]);
@@ -214,14 +214,25 @@ LSLAM_TARGET_AVX_FMA void addBlockProductsAvx(const Mat3* blocks, const Index* r
   }
 }
 
-LSLAM_TARGET_AVX_FMA void addBlockProductsOfColumnsAvx(const Mat3* const* columns, const Mat3* s,
-                                                       Index num_columns, const Index* rows,
-                                                       Index first, Index size,
-                                                       const Index* target_rows, Mat3* target) {
-  Index p = 1;
+// Column c of t - b l^T, each product fused in order k = 0, 1, 2: t + b s for s = -l^T, as
+// addProductColumn gives it (a fused -(b l) + t is b (-l) + t exactly: negation does not round).
+LSLAM_TARGET_AVX_FMA inline __m256d subtractProductColumnTransposed(__m256d b0, __m256d b1,
+                                                                    __m256d b2, const double* l,
+                                                                    int c, __m256d t) {
+  t = _mm256_fnmadd_pd(b0, _mm256_broadcast_sd(l + c), t);
+  t = _mm256_fnmadd_pd(b1, _mm256_broadcast_sd(l + 3 + c), t);
+  return _mm256_fnmadd_pd(b2, _mm256_broadcast_sd(l + 6 + c), t);
+}
+
+LSLAM_TARGET_AVX_FMA void subtractOuterProductsOfColumnsAvx(const Mat3* const* columns,
+                                                            Index num_columns, const Index* rows,
+                                                            Index first, Index size,
+                                                            const Index* target_rows,
+                                                            Mat3* target) {
+  Index p = 0;
   Index b = first;
-  // Two rows at a time: each broadcast of an s entry (the loads, not the multiply-adds, set the
-  // pace here) serves both. Every target entry still sums its products in the same order.
+  // Two rows at a time: each broadcast of a multiplier entry (the loads, not the multiply-adds,
+  // set the pace here) serves both. Every target entry still sums its products in the same order.
   for (; b + 1 < size; b += 2) {
     while (target_rows[p] < rows[b]) ++p;
     LSLAM_DEBUG_ASSERT(target_rows[p] == rows[b]);
@@ -235,19 +246,19 @@ LSLAM_TARGET_AVX_FMA void addBlockProductsOfColumnsAvx(const Mat3* const* column
     for (Index m = 0; m < num_columns; ++m) {
       const double* b_data = columns[m][b].data();
       const double* c_data = columns[m][b + 1].data();
+      const double* l = columns[m][first].data();
       const __m256d b0 = loadColumn(b_data, 0);
       const __m256d b1 = loadColumn(b_data, 1);
       const __m256d b2 = loadColumn(b_data, 2);
       const __m256d c0 = loadColumn(c_data, 0);
       const __m256d c1 = loadColumn(c_data, 1);
       const __m256d c2 = loadColumn(c_data, 2);
-      const Mat3& sm = s[m];
       for (int c = 0; c < 3; ++c) {
-        const __m256d s0 = _mm256_broadcast_sd(&sm(0, c));
-        const __m256d s1 = _mm256_broadcast_sd(&sm(1, c));
-        const __m256d s2 = _mm256_broadcast_sd(&sm(2, c));
-        t[c] = _mm256_fmadd_pd(b2, s2, _mm256_fmadd_pd(b1, s1, _mm256_fmadd_pd(b0, s0, t[c])));
-        u[c] = _mm256_fmadd_pd(c2, s2, _mm256_fmadd_pd(c1, s1, _mm256_fmadd_pd(c0, s0, u[c])));
+        const __m256d l0 = _mm256_broadcast_sd(l + c);
+        const __m256d l1 = _mm256_broadcast_sd(l + 3 + c);
+        const __m256d l2 = _mm256_broadcast_sd(l + 6 + c);
+        t[c] = _mm256_fnmadd_pd(b2, l2, _mm256_fnmadd_pd(b1, l1, _mm256_fnmadd_pd(b0, l0, t[c])));
+        u[c] = _mm256_fnmadd_pd(c2, l2, _mm256_fnmadd_pd(c1, l1, _mm256_fnmadd_pd(c0, l0, u[c])));
       }
     }
     storeColumns(t_data, t[0], t[1], t[2]);
@@ -261,10 +272,11 @@ LSLAM_TARGET_AVX_FMA void addBlockProductsOfColumnsAvx(const Mat3* const* column
     __m256d t[3] = {loadColumn(t_data, 0), loadColumn(t_data, 1), loadColumn(t_data, 2)};
     for (Index m = 0; m < num_columns; ++m) {
       const double* b_data = columns[m][b].data();
+      const double* l = columns[m][first].data();
       const __m256d b0 = loadColumn(b_data, 0);
       const __m256d b1 = loadColumn(b_data, 1);
       const __m256d b2 = loadColumn(b_data, 2);
-      for (int c = 0; c < 3; ++c) t[c] = addProductColumn(b0, b1, b2, s[m], c, t[c]);
+      for (int c = 0; c < 3; ++c) t[c] = subtractProductColumnTransposed(b0, b1, b2, l, c, t[c]);
     }
     storeColumns(t_data, t[0], t[1], t[2]);
   }
@@ -294,8 +306,8 @@ void addBlockProductsAvx(const Mat3*, const Index*, Index, Index, const Mat3&, c
                          Mat3*) {
   LSLAM_ASSERT(false);
 }
-void addBlockProductsOfColumnsAvx(const Mat3* const*, const Mat3*, Index, const Index*, Index,
-                                  Index, const Index*, Mat3*) {
+void subtractOuterProductsOfColumnsAvx(const Mat3* const*, Index, const Index*, Index, Index,
+                                       const Index*, Mat3*) {
   LSLAM_ASSERT(false);
 }
 

@@ -73,9 +73,7 @@ void IncrementalCholesky<D>::scatterWithinSupernode(Index m, Index last) {
       Block* target = a_.blocks + a_.staged_start[t];
       const Block s = -1.0 * blocks[a].transpose();
       a_.staged_d[t].noalias() += s.transpose() * a_.staged_d[m];
-      target[0].noalias() += blocks[a] * s;
-      detail::addBlockProductsAvx(blocks, rows, a + 1, size, s, a_.rows + a_.staged_start[t],
-                                  target);
+      detail::addBlockProductsAvx(blocks, rows, a, size, s, a_.rows + a_.staged_start[t], target);
       stats_.block_products += size - a;
     }
   } else {
@@ -99,18 +97,18 @@ void IncrementalCholesky<D>::scatterFromSupernode(Index first, Index last) {
       // What scatter() counts for targets out_rows[j]: num_out - j products each.
       stats_.block_products += static_cast<std::int64_t>(num_out) * (num_out + 1) / 2;
     }
-    Block s[kMaxSupernodeWidth];
     for (Index j = 0; j < num_out; ++j) {
       const Index target_column = out_rows[j];
       const Index* target_rows = a_.rows + a_.staged_start[target_column];
       Block* target = a_.blocks + a_.staged_start[target_column];
+      // Written as scatter() writes it, for its bits (Eigen sums L d in another order).
       for (Index m = 0; m < width; ++m) {
-        s[m] = -1.0 * out[m][j].transpose();
-        a_.staged_d[target_column].noalias() += s[m].transpose() * a_.staged_d[first + m];
-        target[0].noalias() += out[m][j] * s[m];
+        const Block s = -1.0 * out[m][j].transpose();
+        a_.staged_d[target_column].noalias() += s.transpose() * a_.staged_d[first + m];
       }
-      detail::addBlockProductsOfColumnsAvx(out, s, width, out_rows, j + 1, num_out, target_rows,
-                                           target);
+      // From row j, the target's own (its diagonal block), as scatter() does it.
+      detail::subtractOuterProductsOfColumnsAvx(out, width, out_rows, j, num_out, target_rows,
+                                                target);
     }
   } else {
     LSLAM_ASSERT(false);  // only the D = 3 factor has the AVX kernels

@@ -205,17 +205,20 @@ inline void multiplyBlocksByTransposedLower(Eigen::Matrix<double, D, D>* blocks,
 }
 
 // addBlockProduct(target[p], blocks[b], s) for b in [first, size), with p the place of rows[b]
-// among target_rows (ascending, holding every rows[b]; target_rows[0] is below them all).
+// among target_rows (ascending, holding every rows[b]). target_rows[0] is the target column
+// itself: from first = the source's row of it, the diagonal block takes its product here too.
 void addBlockProductsAvx(const Mat3* blocks, const Index* rows, Index first, Index size,
                          const Mat3& s, const Index* target_rows, Mat3* target);
 
-// addBlockProductsAvx for several source columns at once: for b in [first, size), target[p] +=
-// columns[0][b] * s[0], then += columns[1][b] * s[1], ... (each product summed as in
-// addBlockProduct), p the place of rows[b] among target_rows. The target block is loaded and
-// stored once for all of them.
-void addBlockProductsOfColumnsAvx(const Mat3* const* columns, const Mat3* s, Index num_columns,
-                                  const Index* rows, Index first, Index size,
-                                  const Index* target_rows, Mat3* target);
+// The updates of a supernode's columns m = 0 .. num_columns - 1 to one target column: for b in
+// [first, size), target[p] += columns[m][b] * s_m with s_m = -columns[m][first]^T, for m in
+// order (each product summed as in addBlockProduct, so the target takes the bits that
+// addBlockProductsAvx with that s_m gives, column after column), p the place of rows[b] among
+// target_rows. The target block is loaded and stored once for all of them, and s_m is read from
+// the column itself (a negated multiply-add), not from a transposed copy.
+void subtractOuterProductsOfColumnsAvx(const Mat3* const* columns, Index num_columns,
+                                       const Index* rows, Index first, Index size,
+                                       const Index* target_rows, Mat3* target);
 
 }  // namespace detail
 }  // namespace lslam
