@@ -377,7 +377,7 @@ Index PoseGraphSolver2D::addedLoopClosures(const Index* position_of) const {
 Index PoseGraphSolver2D::stageCandidates(double above, double at_most, Index count) {
   for (Index i = 0; i < relinearize_count_; ++i) {
     const Index v = a_.relinearize_list[i];
-    const double moved = a_.delta[v].cwiseAbs().maxCoeff();
+    const double moved = movedBy(v);
     if (!(moved > above && moved <= at_most)) continue;
     graph_.relinearize(v, graph_.linearizationPoint(v).retract(a_.delta[v]));
     a_.marked[count++] = v;
@@ -399,7 +399,7 @@ double PoseGraphSolver2D::partialThreshold() const {
 Index PoseGraphSolver2D::stageEveryMovedVariable(double tolerance) {
   Index count = 0;
   for (Index v = 0; v < graph_.variables(); ++v) {
-    if (a_.delta[v].cwiseAbs().maxCoeff() <= tolerance) continue;
+    if (movedBy(v) <= tolerance) continue;
     graph_.relinearize(v, graph_.linearizationPoint(v).retract(a_.delta[v]));
     a_.marked[count++] = v;
   }
@@ -684,7 +684,7 @@ void PoseGraphSolver2D::keepWaitingCandidates() {
   bool urgent = false;
   for (Index i = 0; i < relinearize_count_; ++i) {
     const Index v = a_.relinearize_list[i];
-    const double moved = a_.delta[v].cwiseAbs().maxCoeff();
+    const double moved = movedBy(v);
     if (!(moved > options_.relinearize_threshold)) {
       a_.relinearize_flag[v] = 0;
       continue;

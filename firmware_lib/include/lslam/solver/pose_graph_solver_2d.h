@@ -115,6 +115,9 @@ class PoseGraphSolver2D {
   bool prepareOrdering();
   bool preparesOrderingAhead() const;
   void takePreparedOrdering(Index* variable_at, Index* position_of) const;
+  // How far a variable's solution moved from its linearization point (max-norm), the measure of
+  // every relinearization rule.
+  double movedBy(Index variable) const { return a_.delta[variable].cwiseAbs().maxCoeff(); }
   Index stageCandidates(double above, double at_most, Index count);
   double partialThreshold() const;
   Index stageEveryMovedVariable(double tolerance);
