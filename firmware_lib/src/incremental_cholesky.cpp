@@ -601,8 +601,51 @@ Index IncrementalCholesky<D>::backSubstitute(Vector* delta, const Index* variabl
   return solved;
 }
 
-template class IncrementalCholesky<2>;
-template class IncrementalCholesky<3>;
-template class IncrementalCholesky<6>;
+// The members defined here, one by one, as in the other parts of the class (_reorder, _row_update,
+// _layout, _supernodes). Not `template class`: GCC's link-time optimizer turns this file's calls
+// to members defined in another part into weak references when the class is instantiated whole,
+// and a linker pulls no archive member for a weak reference (an -flto build then fails to link:
+// undefined factorizeBySupernodes). Member by member, the references stay strong.
+#define LSLAM_INSTANTIATE_CORE(D)                                                                 \
+  template IncrementalCholesky<D>::IncrementalCholesky(const CholeskyArrays<D>&);                 \
+  template void IncrementalCholesky<D>::beginUpdate(Index, bool);                                 \
+  template void IncrementalCholesky<D>::markChanged(Index);                                       \
+  template void IncrementalCholesky<D>::keepUnchangedStructures();                                \
+  template void IncrementalCholesky<D>::markStructureChanged(Index);                              \
+  template void IncrementalCholesky<D>::queue(Index);                                             \
+  template Index IncrementalCholesky<D>::popSmallest();                                           \
+  template std::uint32_t IncrementalCholesky<D>::nextMark();                                      \
+  template Status IncrementalCholesky<D>::factorize(const InformationSource<D>&, const Index*,    \
+                                                    const Index*);                                \
+  template Status IncrementalCholesky<D>::buildStructure(Index, const InformationSource<D>&,      \
+                                                         const Index*, const Index*);             \
+  template Index IncrementalCholesky<D>::addChildrenFill(Index, std::uint32_t, Index*, Index);    \
+  template Status IncrementalCholesky<D>::stageStructure(Index, Index*, Index);                   \
+  template bool IncrementalCholesky<D>::keepsStructure(Index);                                    \
+  template Status IncrementalCholesky<D>::stageOldStructure(Index);                               \
+  template void IncrementalCholesky<D>::linkStagedChild(Index, Index);                            \
+  template void IncrementalCholesky<D>::startColumn(Index, const InformationSource<D>&,           \
+                                                    const Index*, const Index*);                  \
+  template void IncrementalCholesky<D>::assembleAllColumns(const InformationSource<D>&,           \
+                                                           const Index*, const Index*);           \
+  template Status IncrementalCholesky<D>::finishColumn(Index);                                    \
+  template void IncrementalCholesky<D>::scatter(const Index*, const Block*, Index, const Vector&, \
+                                                double);                                          \
+  template void IncrementalCholesky<D>::commit();                                                 \
+  template void IncrementalCholesky<D>::installStaged(Index);                                     \
+  template void IncrementalCholesky<D>::settleStagedColumns();                                    \
+  template Index IncrementalCholesky<D>::packColumns(Index*, Index, Index*, const Index*, Index); \
+  template std::int64_t IncrementalCholesky<D>::inPlaceProducts();                                \
+  template void IncrementalCholesky<D>::rollback();                                               \
+  template void IncrementalCholesky<D>::linkChild(Index, Index);                                  \
+  template void IncrementalCholesky<D>::unlinkChild(Index, Index);                                \
+  template void IncrementalCholesky<D>::rebuildChildLists();                                      \
+  template void IncrementalCholesky<D>::compact();                                                \
+  template Index IncrementalCholesky<D>::backSubstitute(Vector*, const Index*, double, bool,      \
+                                                        Index*);
+LSLAM_INSTANTIATE_CORE(2)
+LSLAM_INSTANTIATE_CORE(3)
+LSLAM_INSTANTIATE_CORE(6)
+#undef LSLAM_INSTANTIATE_CORE
 
 }  // namespace lslam
