@@ -4,7 +4,8 @@
 namespace lslam {
 
 // Every outcome of a public call. A call that returns anything but Ok has changed nothing.
-enum class Status : std::uint8_t {
+// [[nodiscard]] on the type: no function returning a Status can have it ignored unseen.
+enum class [[nodiscard]] Status : std::uint8_t {
   Ok = 0,
   NonFiniteInput,                  // NaN or Inf in a measurement, information matrix or value
   InformationNotPositiveDefinite,  // information matrix not symmetric positive definite
