@@ -9,16 +9,17 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "host_sim/batch_solver.h"
 #include "host_sim/chi2.h"
+#include "host_sim/cli_args.h"
 #include "host_sim/dataset_io.h"
 #include "host_sim/incremental_run.h"
 #include "host_sim/synthetic.h"
@@ -44,6 +45,19 @@ int usage() {
   return 2;
 }
 
+// A usage error in an option's value (exit status 2, as usage()).
+int badValue(const std::string& option, const char* value, const char* expected) {
+  std::fprintf(stderr, "lslam-sim: %s: invalid value %s (expected %s)\n", option.c_str(),
+               jsonString(value).c_str(), expected);
+  return 2;
+}
+
+int missingValue(const std::string& option) {
+  std::fprintf(stderr, "lslam-sim: %s needs a value\n", option.c_str());
+  usage();
+  return 2;
+}
+
 struct RunArgs {
   std::string dataset;
   StepOrder order = StepOrder::Online;
@@ -66,15 +80,6 @@ long peakRssKb() {
   return usage.ru_maxrss;
 }
 
-std::string jsonString(const std::string& s) {
-  std::string out = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') out += '\\';
-    out += c;
-  }
-  return out + "\"";
-}
-
 void writeCsv(const std::string& path, const IncrementalRun& run) {
   std::ofstream f(path);
   if (!f) throw std::runtime_error("cannot write " + path);
@@ -89,6 +94,8 @@ void writeCsv(const std::string& path, const IncrementalRun& run) {
   }
 }
 
+// The estimate with every measurement, the solver's anchor as the FIX (so that the file reads
+// back with the same gauge).
 void writeEstimate(const std::string& path, const Dataset2D& d, const IncrementalRun& run) {
   Dataset2D out;
   out.name = path;
@@ -97,12 +104,16 @@ void writeEstimate(const std::string& path, const Dataset2D& d, const Incrementa
   std::sort(ids.begin(), ids.end());
   for (std::int64_t id : ids) out.vertices.push_back(Vertex2D{id, run.estimate.at(id), 0});
   out.edges = d.edges;
-  out.fixed = {ids.empty() ? 0 : ids.front()};
+  if (run.anchor >= 0) out.fixed = {run.anchor};
   writeG2oFile(path, out);
 }
 
 int run(const RunArgs& args) {
   const Dataset2D d = readDataset2D(args.dataset);
+  if (d.vertices.empty() && d.edges.empty()) {
+    std::fprintf(stderr, "lslam-sim: %s: no poses/edges to run\n", args.dataset.c_str());
+    return 1;
+  }
   IncrementalOptions options;
   options.order = args.order;
   options.solve_every = args.solve_every;
@@ -111,7 +122,10 @@ int run(const RunArgs& args) {
   const double chi2_inc = chi2G2o(d, inc.estimate);
   const double chi2_initial = chi2G2o(d, inc.initial);
 
+  // The batch holds the pose the incremental solver anchors fixed (the same gauge), which is the
+  // file's FIX if it has one (runIncremental rejects a FIX of any other pose).
   BatchOptions batch_options;
+  if (inc.anchor >= 0) batch_options.fixed = {inc.anchor};
   const BatchResult batch = solveBatch2D(d, inc.initial, batch_options);
   double max_diff = 0.0;
   for (const auto& [id, p] : inc.estimate) {
@@ -183,10 +197,18 @@ int generate(int argc, char** argv) {
   SyntheticOptions options;
   for (int i = 3; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--poses" && i + 1 < argc) {
-      options.poses = std::atoi(argv[++i]);
-    } else if (a == "--seed" && i + 1 < argc) {
-      options.seed = static_cast<std::uint32_t>(std::strtoul(argv[++i], nullptr, 10));
+    if (a == "--poses" || a == "--seed") {
+      if (i + 1 >= argc) return missingValue(a);
+      const char* v = argv[++i];
+      if (a == "--poses") {
+        const auto n = parseIntegerArg(v, 1, std::numeric_limits<int>::max());
+        if (!n) return badValue(a, v, "an integer >= 1");
+        options.poses = static_cast<int>(*n);
+      } else {
+        const auto n = parseIntegerArg(v, 0, std::numeric_limits<std::uint32_t>::max());
+        if (!n) return badValue(a, v, "an integer in 0..4294967295");
+        options.seed = static_cast<std::uint32_t>(*n);
+      }
     } else {
       return usage();
     }
@@ -207,64 +229,103 @@ int main(int argc, char** argv) {
     if (std::strcmp(argv[1], "run") != 0 || argc < 3) return usage();
     RunArgs args;
     args.dataset = argv[2];
+    // Options with a value, parsed strictly (the whole token; reals finite): a bad value is a
+    // usage error naming the option.
+    constexpr std::int64_t kMaxIndex = std::numeric_limits<lslam::Index>::max();
+    constexpr double kMaxReal = std::numeric_limits<double>::max();
+    lslam::SolverOptions& so = args.solver;
+    struct RealOption {
+      const char* name;
+      double* value;
+    };
+    const RealOption real_options[] = {
+        {"--relinearize-threshold", &so.relinearize_threshold},
+        {"--relinearize-urgent", &so.relinearize_urgent_threshold},
+        {"--relinearize-partial", &so.relinearize_partial_threshold},
+        {"--backsub-tolerance", &so.backsubstitution_tolerance},
+        {"--reorder-growth", &so.reorder_growth},
+        {"--reorder-excess", &so.reorder_excess_ratio},
+        {"--reorder-relinearized", &so.reorder_relinearized_share},
+        {"--reorder-refresh", &so.reorder_refresh_growth},
+        {"--relinearize-full-cost", &so.relinearize_full_cost_ratio},
+    };
+    struct IndexOption {
+      const char* name;
+      lslam::Index* value;
+    };
+    const IndexOption index_options[] = {
+        {"--relinearize-skip", &so.relinearize_skip},
+        {"--reorder-path", &so.reorder_path_columns},
+        {"--reorder-burst", &so.reorder_burst_loop_closures},
+    };
+    const auto find_real = [&](const std::string& name) -> double* {
+      for (const RealOption& o : real_options) {
+        if (name == o.name) return o.value;
+      }
+      return nullptr;
+    };
+    const auto find_index = [&](const std::string& name) -> lslam::Index* {
+      for (const IndexOption& o : index_options) {
+        if (name == o.name) return o.value;
+      }
+      return nullptr;
+    };
+    const auto takes_value = [&](const std::string& name) {
+      return name == "--order" || name == "--solve-every" || name == "--csv" || name == "--out" ||
+             name == "--report" || name == "--prepare-min-products" || find_real(name) != nullptr ||
+             find_index(name) != nullptr;
+    };
     for (int i = 3; i < argc; ++i) {
       const std::string a = argv[i];
-      const bool has_value = i + 1 < argc;
       if (a == "--json") {
         args.json = true;
-      } else if (a == "--order" && has_value) {
-        const std::string v = argv[++i];
-        if (v == "online")
-          args.order = StepOrder::Online;
-        else if (v == "file")
-          args.order = StepOrder::File;
-        else
-          return usage();
-      } else if (a == "--solve-every" && has_value) {
-        args.solve_every = std::atoi(argv[++i]);
-        if (args.solve_every < 1) return usage();
-      } else if (a == "--csv" && has_value) {
-        args.csv = argv[++i];
-      } else if (a == "--out" && has_value) {
-        args.out = argv[++i];
-      } else if (a == "--report" && has_value) {
-        args.report = argv[++i];
-      } else if (a == "--relinearize-threshold" && has_value) {
-        args.solver.relinearize_threshold = std::atof(argv[++i]);
-      } else if (a == "--relinearize-urgent" && has_value) {
-        args.solver.relinearize_urgent_threshold = std::atof(argv[++i]);
-      } else if (a == "--relinearize-partial" && has_value) {
-        args.solver.relinearize_partial_threshold = std::atof(argv[++i]);
-      } else if (a == "--relinearize-skip" && has_value) {
-        args.solver.relinearize_skip = static_cast<lslam::Index>(std::atol(argv[++i]));
-      } else if (a == "--backsub-tolerance" && has_value) {
-        args.solver.backsubstitution_tolerance = std::atof(argv[++i]);
-      } else if (a == "--reorder-growth" && has_value) {
-        args.solver.reorder_growth = std::atof(argv[++i]);
-      } else if (a == "--reorder-excess" && has_value) {
-        args.solver.reorder_excess_ratio = std::atof(argv[++i]);
       } else if (a == "--reorder-top") {
-        args.solver.reorder_affected_top = true;
+        so.reorder_affected_top = true;
       } else if (a == "--no-row-updates") {
-        args.solver.row_updates = false;
+        so.row_updates = false;
       } else if (a == "--no-linearization-cache") {
-        args.solver.cache_linearizations = false;
-      } else if (a == "--reorder-relinearized" && has_value) {
-        args.solver.reorder_relinearized_share = std::atof(argv[++i]);
-      } else if (a == "--reorder-refresh" && has_value) {
-        args.solver.reorder_refresh_growth = std::atof(argv[++i]);
-      } else if (a == "--relinearize-full-cost" && has_value) {
-        args.solver.relinearize_full_cost_ratio = std::atof(argv[++i]);
-      } else if (a == "--prepare-min-products" && has_value) {
-        args.solver.prepare_ordering_min_products = std::atoll(argv[++i]);
+        so.cache_linearizations = false;
       } else if (a == "--order-in-one-update") {
-        args.solver.prepare_ordering_ahead = false;
-      } else if (a == "--reorder-path" && has_value) {
-        args.solver.reorder_path_columns = std::atoi(argv[++i]);
-      } else if (a == "--reorder-burst" && has_value) {
-        args.solver.reorder_burst_loop_closures = std::atoi(argv[++i]);
-      } else {
+        so.prepare_ordering_ahead = false;
+      } else if (!takes_value(a)) {
+        std::fprintf(stderr, "lslam-sim: unknown option %s\n", jsonString(a).c_str());
         return usage();
+      } else if (i + 1 >= argc) {
+        return missingValue(a);
+      } else {
+        const char* v = argv[++i];
+        if (a == "--order") {
+          const std::string order = v;
+          if (order == "online") {
+            args.order = StepOrder::Online;
+          } else if (order == "file") {
+            args.order = StepOrder::File;
+          } else {
+            return badValue(a, v, "online or file");
+          }
+        } else if (a == "--solve-every") {
+          const auto n = parseIntegerArg(v, 1, std::numeric_limits<int>::max());
+          if (!n) return badValue(a, v, "an integer >= 1");
+          args.solve_every = static_cast<int>(*n);
+        } else if (a == "--csv") {
+          args.csv = v;
+        } else if (a == "--out") {
+          args.out = v;
+        } else if (a == "--report") {
+          args.report = v;
+        } else if (a == "--prepare-min-products") {
+          const auto n = parseIntegerArg(v, 0, std::numeric_limits<std::int64_t>::max());
+          if (!n) return badValue(a, v, "an integer >= 0");
+          so.prepare_ordering_min_products = *n;
+        } else if (double* real = find_real(a)) {
+          const auto x = parseRealArg(v, 0.0, kMaxReal);
+          if (!x) return badValue(a, v, "a finite number >= 0");
+          *real = *x;
+        } else if (lslam::Index* index = find_index(a)) {
+          const auto n = parseIntegerArg(v, 0, kMaxIndex);
+          if (!n) return badValue(a, v, "an integer in 0..2147483647");
+          *index = static_cast<lslam::Index>(*n);
+        }
       }
     }
     return run(args);

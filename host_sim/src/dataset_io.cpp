@@ -1,5 +1,7 @@
 #include "host_sim/dataset_io.h"
 
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <array>
 #include <cerrno>
@@ -41,9 +43,11 @@ bool contains(std::string_view s, std::string_view part) {
   return s.find(part) != std::string_view::npos;
 }
 
-// Reason for a tag that is not a supported 2D pose record.
+std::string show(std::string_view token);
+
+// Reason for a tag that is not a supported 2D pose record (the tag escaped: it may be binary).
 std::string unsupportedReason(std::string_view tag) {
-  const std::string quoted = "'" + std::string(tag) + "'";
+  const std::string quoted = show(tag);
   const bool is_3d = contains(tag, "SE3") || contains(tag, "XYZ") || tag == "EDGE3" ||
                      tag == "VERTEX3" || tag == "POINT3" || tag == "POSE3";
   if (is_3d) return "unsupported record " + quoted + " (3D records are not supported)";
@@ -176,6 +180,27 @@ class FieldParser {
   const Record& r_;
 };
 
+// The information must be symmetric positive definite (the solvers factorize it): checked with
+// Eigen's Cholesky factorization, which also fails on a singular (only semi-definite) matrix.
+// `m` is symmetric by construction.
+bool isPositiveDefinite(const Eigen::Matrix3d& m) {
+  const Eigen::LLT<Eigen::Matrix3d> llt(m);
+  // Intermediate overflow (Inf - Inf) gives NaN pivots, which LLT's "pivot <= 0" test lets pass.
+  return llt.info() == Eigen::Success && llt.matrixLLT().allFinite();
+}
+
+std::string formatDouble(double v) {
+  std::array<char, 64> buf{};
+  const auto res = std::to_chars(buf.data(), buf.data() + buf.size(), v);
+  return std::string(buf.data(), res.ptr);
+}
+
+std::string smallestEigenvalueText(const Eigen::Matrix3d& m) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(m, Eigen::EigenvaluesOnly);
+  if (eig.info() != Eigen::Success) return "eigenvalues not computable";
+  return "smallest eigenvalue " + formatDouble(eig.eigenvalues().minCoeff());
+}
+
 constexpr std::array<const char*, 6> kInfoFieldsG2o = {"I11", "I12", "I13", "I22", "I23", "I33"};
 constexpr std::array<const char*, 6> kInfoFieldsToro = {"inf_ff", "inf_fs", "inf_ss",
                                                         "inf_rr", "inf_fr", "inf_sr"};
@@ -238,6 +263,24 @@ Edge2D parseEdge(const std::string& file, const Record& r, DatasetFormat format)
       break;
     }
   }
+  if (!isPositiveDefinite(m)) {
+    std::string reason = std::string(r.tokens[0]) + ": information matrix is not positive definite";
+    if (format == DatasetFormat::Isam) {
+      // R^T R is singular exactly when R (triangular) has a zero on its diagonal; otherwise the
+      // product under- or overflowed.
+      std::string zeros;
+      for (std::size_t k : {0u, 3u, 5u}) {
+        if (a[k] == 0.0) zeros += std::string(zeros.empty() ? "" : ", ") + names[k] + " = 0";
+      }
+      reason += " (information = R^T R; " +
+                (zeros.empty() ? std::string("R^T R underflows or loses rank in rounding")
+                               : "square-root information R is singular: " + zeros) +
+                "; " + smallestEigenvalueText(m) + ")";
+    } else {
+      reason += " (" + smallestEigenvalueText(m) + ")";
+    }
+    p.fail(reason);
+  }
   e.information = m;
   e.line = r.line;
   return e;
@@ -268,6 +311,35 @@ bool hasGraphExtension(const std::string& name) {
     return (c >= 'A' && c <= 'Z') ? static_cast<char>(c - 'A' + 'a') : c;
   });
   return ext == ".graph";
+}
+
+// A file with vertex lines declares its poses: every id an edge or a FIX names must be one of
+// them. Vertices may come after the edges, so this runs after the whole file was read; it reports
+// the earliest offending line. Files without vertex lines (iSAM) declare nothing.
+void checkDeclared(const Dataset2D& d,
+                   const std::unordered_map<std::int64_t, std::size_t>& vertex_line) {
+  if (d.vertices.empty()) return;
+  const std::string vertex_tag = d.format == DatasetFormat::Toro ? "VERTEX2" : "VERTEX_SE2";
+  const auto declared = [&](std::int64_t id) { return vertex_line.count(id) != 0; };
+  std::size_t bad_line = 0;
+  std::string reason;
+  for (const Edge2D& e : d.edges) {
+    if (declared(e.from) && declared(e.to)) continue;
+    const std::int64_t id = declared(e.from) ? e.to : e.from;
+    bad_line = e.line;
+    reason = "edge " + std::to_string(e.from) + " -> " + std::to_string(e.to) + " names pose " +
+             std::to_string(id) + ", which no " + vertex_tag + " line declares";
+    break;  // edges are in file order: the first is the earliest
+  }
+  for (std::size_t k = 0; k < d.fixed.size(); ++k) {
+    const std::size_t line = k < d.fixed_lines.size() ? d.fixed_lines[k] : 0;
+    if (declared(d.fixed[k]) || (bad_line != 0 && line >= bad_line)) continue;
+    bad_line = line;
+    reason = "FIX names pose " + std::to_string(d.fixed[k]) + ", which no " + vertex_tag +
+             " line declares";
+    break;
+  }
+  if (!reason.empty()) throw DatasetError(d.name, bad_line, reason);
 }
 
 Dataset2D parseImpl(std::istream& in, const std::string& name,
@@ -303,7 +375,8 @@ Dataset2D parseImpl(std::istream& in, const std::string& name,
 
   Dataset2D d;
   d.name = name;
-  d.format = forced ? *forced : (hasGraphExtension(name) ? DatasetFormat::Toro : DatasetFormat::G2o);
+  d.format =
+      forced ? *forced : (hasGraphExtension(name) ? DatasetFormat::Toro : DatasetFormat::G2o);
   std::size_t format_line = 0;  // line of the record that fixed the format (0: forced/none yet)
   bool format_known = forced.has_value();
 
@@ -352,13 +425,17 @@ Dataset2D parseImpl(std::istream& in, const std::string& name,
       case Tag::Fix: {
         const FieldParser p(name, r);
         if (r.tokens.size() < 2) p.fail("FIX: expected at least 2 fields, got 1 (no id)");
-        for (std::size_t k = 1; k < r.tokens.size(); ++k) d.fixed.push_back(p.id(k, "id"));
+        for (std::size_t k = 1; k < r.tokens.size(); ++k) {
+          d.fixed.push_back(p.id(k, "id"));
+          d.fixed_lines.push_back(r.line);
+        }
         break;
       }
       case Tag::Other:
         break;
     }
   }
+  checkDeclared(d, vertex_line);
   return d;
 }
 
@@ -453,6 +530,16 @@ void writeG2o(std::ostream& out, const std::vector<Vertex2D>& vertices,
     checkFinite(e.measurement.theta, what);
     if (!e.information.allFinite()) {
       throw std::invalid_argument("writeG2o: " + what + ": non-finite information");
+    }
+    // What is written is the upper triangle, read back as a symmetric matrix.
+    const Eigen::Matrix3d& m = e.information;
+    Eigen::Matrix3d written;
+    written << m(0, 0), m(0, 1), m(0, 2),  //
+        m(0, 1), m(1, 1), m(1, 2),         //
+        m(0, 2), m(1, 2), m(2, 2);
+    if (!isPositiveDefinite(written)) {
+      throw std::invalid_argument("writeG2o: " + what +
+                                  ": information (upper triangle) is not positive definite");
     }
   }
   for (std::int64_t id : fixed) checkId(id, "FIX");

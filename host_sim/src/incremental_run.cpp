@@ -4,6 +4,7 @@
 #include <cstring>
 #include <new>
 #include <stdexcept>
+#include <string>
 #include <unordered_map>
 
 namespace lslam::sim {
@@ -67,16 +68,54 @@ ZeroedSolver makeZeroedSolver(const SolverOptions& options) {
   return ZeroedSolver(new (memory) HostSolver2D(options));
 }
 
+// The incremental solver anchors step 0's pose and knows no FIX; fixing another pose would make
+// the batch solver (which honours FIX) solve a different problem.
+void checkFixed(const Dataset2D& d, std::int64_t anchor) {
+  for (std::size_t k = 0; k < d.fixed.size(); ++k) {
+    if (d.fixed[k] == anchor) continue;
+    const std::size_t line = k < d.fixed_lines.size() ? d.fixed_lines[k] : 0;
+    const std::string anchored =
+        anchor < 0 ? std::string("the dataset has no pose for the incremental solver to anchor")
+                   : "the incremental solver anchors pose " + std::to_string(anchor) +
+                         " (its first pose); fixing another pose is not supported";
+    throw DatasetError(d.name, line, "FIX " + std::to_string(d.fixed[k]) + ": " + anchored);
+  }
+}
+
+// "step 4 (pose 4, edges at lines 9, 12) rejected: <status>", at the first edge's line.
+[[noreturn]] void rejectStep(const Dataset2D& d, const Step& step, std::size_t index,
+                             Status status) {
+  constexpr std::size_t kMaxLines = 10;
+  std::string lines;
+  for (std::size_t k = 0; k < step.edges.size() && k < kMaxLines; ++k) {
+    lines += (k == 0 ? "" : ", ") + std::to_string(d.edges[step.edges[k]].line);
+  }
+  if (step.edges.size() > kMaxLines) {
+    lines += ", ... (" + std::to_string(step.edges.size()) + " edges)";
+  }
+  std::string reason = "step " + std::to_string(index) + " (pose " + std::to_string(step.new_pose);
+  if (!step.edges.empty()) {
+    reason += step.edges.size() == 1 ? ", edge at line " : ", edges at lines ";
+    reason += lines;
+  }
+  reason += std::string(") rejected: ") + toString(status);
+  const std::size_t line = step.edges.empty() ? 0 : d.edges[step.edges.front()].line;
+  throw DatasetError(d.name, line, reason);
+}
+
 }  // namespace
 
 IncrementalRun runIncremental(const Dataset2D& d, const IncrementalOptions& options) {
   const std::vector<Step> steps = buildSteps(d, options.order);
+  const std::int64_t anchor = steps.empty() ? -1 : steps.front().new_pose;
+  checkFixed(d, anchor);
   const Estimate2D vertices = estimateFromVertices(d);
   SolverOptions solver_options = options.solver;
   solver_options.solve_after_update = false;  // solve() below, every N steps
   ZeroedSolver solver = makeZeroedSolver(solver_options);
 
   IncrementalRun run;
+  run.anchor = anchor;
   run.solver_bytes = sizeof(HostSolver2D);
   run.steps.reserve(steps.size());
   std::vector<FactorInput> factors;
@@ -120,10 +159,7 @@ IncrementalRun runIncremental(const Dataset2D& d, const IncrementalOptions& opti
     const auto t_solve = Clock::now();
     if (status == Status::Ok && solve_now) solver->solve(false, &record.result);
     const auto t1 = Clock::now();
-    if (status != Status::Ok) {
-      throw std::runtime_error("step " + std::to_string(s) + " (pose " +
-                               std::to_string(step.new_pose) + ") rejected: " + toString(status));
-    }
+    if (status != Status::Ok) rejectStep(d, step, s, status);
     record.microseconds = std::chrono::duration<double, std::micro>(t1 - t0).count();
     record.solve_microseconds = std::chrono::duration<double, std::micro>(t1 - t_solve).count();
     run.total_seconds += record.microseconds * 1e-6;

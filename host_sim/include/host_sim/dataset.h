@@ -39,6 +39,9 @@ struct Dataset2D {
   std::vector<Vertex2D> vertices;   // file order; empty for edge-only files (iSAM)
   std::vector<Edge2D> edges;        // file order
   std::vector<std::int64_t> fixed;  // ids named by FIX lines
+  // Line of each FIX id (same index as `fixed`; may be shorter or empty for datasets not read
+  // from a file, whose FIX ids then count as line 0).
+  std::vector<std::size_t> fixed_lines;
 };
 
 // Thrown by the readers: which file, which line (1-based), and why.

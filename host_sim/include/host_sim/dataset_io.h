@@ -27,8 +27,14 @@
 // number (strict: the whole token must parse, "1.5abc" and "0x10" are errors), NaN/Inf, values
 // out of the range of a double ("1e400"), ids that are not integers, negative or > 2^31-1 ("id out
 // of range"), an edge from a pose to itself, a vertex id defined twice, records of another format
-// than the file's, and unsupported records (2D landmarks, 3D records, unknown tags), e.g.
-//   "unsupported record 'LANDMARK' (2D landmarks are not supported yet)".
+// than the file's, unsupported records (2D landmarks, 3D records, unknown tags), e.g.
+//   "unsupported record 'LANDMARK' (2D landmarks are not supported yet)",
+// and an information matrix that is not positive definite (Eigen's Cholesky factorization fails:
+// a zero, negative, indefinite or singular matrix; for iSAM an R with a zero on its diagonal).
+// Tokens quoted in a reason show non-printable bytes as \xNN. A file with VERTEX lines declares its
+// poses: an edge or FIX naming an id that no vertex line declares throws at the edge's (FIX's)
+// line, the earliest such line of the file (vertices may come after the edges that use them);
+// files without vertex lines (iSAM) need no declarations.
 // A file that cannot be opened or read throws DatasetError(path, 0, reason).
 #include <cstdint>
 #include <iosfwd>
@@ -56,7 +62,8 @@ Dataset2D parseDataset2D(std::istream& in, const std::string& name, DatasetForma
 // (given order, information as its upper triangle I11 I12 I13 I22 I23 I33). Numbers are written
 // in the shortest form that reads back to the identical double (std::to_chars), so write -> read
 // is exact; the file loads in g2o and GTSAM's readG2o. Throws std::invalid_argument (before
-// writing anything) for a non-finite value, an id outside 0..2^31-1 or an edge with from == to,
+// writing anything) for a non-finite value, an id outside 0..2^31-1, an edge with from == to or
+// an information whose upper triangle (the symmetric matrix written) is not positive definite,
 // which the readers would reject; std::runtime_error if the stream fails.
 void writeG2o(std::ostream& out, const std::vector<Vertex2D>& vertices,
               const std::vector<Edge2D>& edges, const std::vector<std::int64_t>& fixed);

@@ -46,9 +46,14 @@ struct IncrementalRun {
   std::size_t solver_bytes = 0;
   Index factor_blocks = 0;
   Index reorders = 0;
+  std::int64_t anchor = -1;  // the pose the solver anchors: step 0's pose (-1: no steps)
 };
 
-// Throws std::runtime_error naming the step and the solver's status if the solver rejects a step.
+// The solver anchors the first step's pose with a prior (SolverOptions::anchor_information) and
+// has no FIX: a dataset whose FIX lines name any other pose throws DatasetError at that FIX line
+// (a FIX of exactly the anchor is accepted). If the solver rejects a step, throws DatasetError at
+// the line of the step's first edge (the reason names the step, its pose, the lines of its edges
+// and the solver's status). Whatever buildSteps throws.
 IncrementalRun runIncremental(const Dataset2D& dataset, const IncrementalOptions& options);
 
 // The solver's inputs for one edge.
