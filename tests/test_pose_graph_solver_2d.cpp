@@ -8,6 +8,7 @@
 #include <limits>
 #include <memory>
 #include <numeric>
+#include <random>
 #include <vector>
 
 #include "host_sim/batch_solver.h"
@@ -15,6 +16,7 @@
 #include "host_sim/incremental_run.h"
 #include "host_sim/steps.h"
 #include "host_sim/synthetic.h"
+#include "lslam/factors/information.h"
 #include "lslam/solver/pose_graph_solver_2d.h"
 #include "solve_order.h"
 
@@ -51,11 +53,16 @@ Estimate2D estimateOf(const PoseGraphSolver2D& solver) {
   return e;
 }
 
-// Feeds one online step; returns the status.
-Status feedStep(PoseGraphSolver2D& solver, const Dataset2D& d, const Step& step,
-                Estimate2D& initial, lslam::UpdateResult* result = nullptr) {
+// The solver's inputs for one online step: its new pose, initialized from the first edge and the
+// solver's estimate of the pose that edge comes from, and its edges.
+struct StepInput {
   PoseInput pose;
-  pose.id = step.new_pose;
+  std::vector<FactorInput> factors;
+};
+
+StepInput stepInput(const PoseGraphSolver2D& solver, const Dataset2D& d, const Step& step) {
+  StepInput in;
+  in.pose.id = step.new_pose;
   Pose2D init{};
   if (!step.edges.empty()) {
     const Edge2D& first = d.edges[step.edges.front()];
@@ -64,11 +71,18 @@ Status feedStep(PoseGraphSolver2D& solver, const Dataset2D& d, const Step& step,
     REQUIRE(solver.estimate(known, &k) == Status::Ok);
     init = initialPoseFromEdge(first, step.new_pose, Pose2D{k.x(), k.y(), k.theta()});
   }
-  pose.initial = SE2(init.x, init.y, init.theta);
-  initial[pose.id] = Pose2D{pose.initial.x(), pose.initial.y(), pose.initial.theta()};
-  std::vector<FactorInput> factors;
-  for (std::size_t e : step.edges) factors.push_back(toFactorInput(d.edges[e]));
-  return solver.update(&pose, 1, factors.data(), static_cast<Index>(factors.size()), result);
+  in.pose.initial = SE2(init.x, init.y, init.theta);
+  for (std::size_t e : step.edges) in.factors.push_back(toFactorInput(d.edges[e]));
+  return in;
+}
+
+// Feeds one online step; returns the status.
+Status feedStep(PoseGraphSolver2D& solver, const Dataset2D& d, const Step& step,
+                Estimate2D& initial, lslam::UpdateResult* result = nullptr) {
+  const StepInput in = stepInput(solver, d, step);
+  initial[in.pose.id] = Pose2D{in.pose.initial.x(), in.pose.initial.y(), in.pose.initial.theta()};
+  return solver.update(&in.pose, 1, in.factors.data(), static_cast<Index>(in.factors.size()),
+                       result);
 }
 
 double maxPositionDiff(const Estimate2D& a, const Estimate2D& b) {
@@ -657,6 +671,189 @@ TEST_CASE("every rejected input returns its status and leaves the solver bit-ide
   const VariableId last = n + 30;
   while (n < last) feedBoth();
   CHECK(snapshot(*solver) == snapshot(*reference));
+}
+
+namespace {
+
+// Information that passes the information check (finite, symmetric, positive definite) and still
+// breaks the factorization: a between factor's Hessian block holds about information x
+// (1 + |t|^2) in its rotation entry, t the translation between its poses, and a row update's
+// whitened rows square to the same; past |t| = 0.45 m that is more than the largest double. The
+// pivot is then not a finite positive number, and the factorization returns NotPositiveDefinite.
+Mat3 overflowingInformation() {
+  return Mat3::Identity() * 1.5e308;
+}
+
+// A loop closure to committed pose `to` from an earlier pose at least 2 m from it (none: `from`
+// is kNoIndex), its measurement where the estimates are, its information overflowing.
+FactorInput overflowingLoopClosure(const PoseGraphSolver2D& solver, Index to, std::mt19937& rng) {
+  const SE2 to_pose = solver.estimateAt(to);
+  std::vector<Index> far;
+  for (Index v = 0; v < to; ++v) {
+    const SE2 from_pose = solver.estimateAt(v);
+    if (std::hypot(to_pose.x() - from_pose.x(), to_pose.y() - from_pose.y()) >= 2.0)
+      far.push_back(v);
+  }
+  FactorInput f;
+  f.kind = FactorKind::BetweenSE2;
+  f.from = kNoIndex;
+  if (far.empty()) return f;
+  const Index from = far[rng() % far.size()];
+  f.from = solver.idAt(from);
+  f.to = solver.idAt(to);
+  f.measurement = solver.estimateAt(from).between(to_pose);
+  f.information = overflowingInformation();
+  return f;
+}
+
+// The same to the newest committed pose, which has such an earlier pose in every state tested.
+FactorInput overflowingLoopClosureToNewest(const PoseGraphSolver2D& solver, std::mt19937& rng) {
+  const FactorInput f = overflowingLoopClosure(solver, solver.poses() - 1, rng);
+  REQUIRE(f.from != kNoIndex);
+  return f;
+}
+
+struct FailingUpdate {
+  const char* what;
+  std::vector<PoseInput> poses;
+  std::vector<FactorInput> factors;
+  bool loop_closure = false;  // an overflowing factor is a loop closure
+  bool burst = false;         // more loop closures than kBurst
+};
+
+// The tests below set reorder_burst_loop_closures to this: no online step of the synthetic worlds
+// adds more loop closures (2 at most), so it changes nothing for the valid steps.
+constexpr Index kBurst = 2;
+
+// An update whose factorization must fail, drawn from four kinds: the next valid step with its
+// odometry factor (the first of a step, 1 m long) overflowing (recomputed last columns); an
+// overflowing loop closure alone (a row update, or recomputed columns); the next valid step with
+// such a loop closure added (paired row updates); a burst of such loop closures (a fresh ordering
+// at once, which overwrites an ordering prepared before: the failure must prepare it again).
+FailingUpdate failingUpdate(const PoseGraphSolver2D& solver, const StepInput& next,
+                            std::mt19937& rng) {
+  FailingUpdate bad;
+  switch (rng() % 4) {
+    case 0:
+      bad.what = "the next step, its odometry overflowing";
+      bad.poses = {next.pose};
+      bad.factors = next.factors;
+      bad.factors.front().information = overflowingInformation();
+      break;
+    case 1:
+      bad.what = "an overflowing loop closure alone";
+      bad.factors = {overflowingLoopClosureToNewest(solver, rng)};
+      bad.loop_closure = true;
+      break;
+    case 2:
+      bad.what = "the next step and an overflowing loop closure";
+      bad.poses = {next.pose};
+      bad.factors = next.factors;
+      bad.factors.push_back(overflowingLoopClosureToNewest(solver, rng));
+      bad.loop_closure = true;
+      break;
+    default:
+      bad.what = "a burst of overflowing loop closures";
+      // Between poses before the newest: COLAMD's input leaves the newest out (it goes last), so
+      // a burst to the newest alone would add only single-entry rows, and its fresh ordering
+      // would be the prepared one.
+      while (static_cast<Index>(bad.factors.size()) <= kBurst) {
+        const Index to = static_cast<Index>(rng() % static_cast<std::uint32_t>(solver.poses() - 1));
+        const FactorInput f = overflowingLoopClosure(solver, to, rng);
+        if (f.from != kNoIndex) bad.factors.push_back(f);
+      }
+      bad.loop_closure = true;
+      bad.burst = true;
+      break;
+  }
+  return bad;
+}
+
+}  // namespace
+
+TEST_CASE(
+    "an update whose factorization fails returns NotPositiveDefinite, leaves the solver "
+    "bit-identical, and the solver goes on exactly like one that never saw it") {
+  // Random worlds from fixed seeds; once the solver has taken 36 valid steps, 3 of them with loop
+  // closures, a failing update before every valid step: so the failure meets every state the
+  // steps bring, with an ordering prepared (the failing update is a reordering) and with a layout
+  // pending among them, in the recomputing and the row-update paths. A reference solver takes the
+  // same valid steps only.
+  REQUIRE(checkInformation(overflowingInformation()) == Status::Ok);
+  int failures = 0;
+  int failures_row_updates_on = 0;  // an overflowing loop closure, row updates on
+  int failures_prepared = 0;
+  int failures_burst_prepared = 0;  // a burst with an ordering prepared
+  int failures_layout_pending = 0;
+  for (const bool row_updates : {true, false}) {
+    CAPTURE(row_updates);
+    for (std::uint32_t seed = 110; seed < 118; ++seed) {
+      CAPTURE(seed);
+      const Dataset2D d = syntheticWorld(160, seed);
+      const std::vector<Step> steps = buildSteps(d, StepOrder::Online);
+      SolverOptions options;
+      options.reorder_min_variables = 20;
+      options.row_updates = row_updates;
+      options.reorder_burst_loop_closures = kBurst;
+      auto solver = std::make_unique<SmallSolver>(options);
+      auto reference = std::make_unique<SmallSolver>(options);
+      std::mt19937 rng(seed);
+      int loop_closures = 0;  // steps with loop closures fed so far
+      bool prepared = false;
+      for (std::size_t s = 0; s < steps.size(); ++s) {
+        CAPTURE(s);
+        const StepInput next = stepInput(*solver, d, steps[s]);
+        if (s >= 36 && loop_closures >= 3) {
+          const FailingUpdate bad = failingUpdate(*solver, next, rng);
+          CAPTURE(bad.what);
+          const bool layout_pending = solver->factor().layoutPending();
+          const Snapshot before = snapshot(*solver);
+          UpdateResult r;
+          const Status status =
+              solver->update(bad.poses.data(), static_cast<Index>(bad.poses.size()),
+                             bad.factors.data(), static_cast<Index>(bad.factors.size()), &r);
+          CHECK(status == Status::NotPositiveDefinite);
+          CHECK(r.status == Status::NotPositiveDefinite);
+          CHECK(snapshot(*solver) == before);
+          ++failures;
+          failures_row_updates_on += row_updates && bad.loop_closure ? 1 : 0;
+          failures_prepared += prepared ? 1 : 0;
+          failures_burst_prepared += prepared && bad.burst ? 1 : 0;
+          failures_layout_pending += layout_pending ? 1 : 0;
+        }
+        // The same valid step to both; every decision the solver reports must match the
+        // reference's (what the pool's layout decides, compaction and the layout, may not).
+        UpdateResult r;
+        UpdateResult r_reference;
+        const Index num_factors = static_cast<Index>(next.factors.size());
+        REQUIRE(solver->update(&next.pose, 1, next.factors.data(), num_factors, &r) == Status::Ok);
+        REQUIRE(reference->update(&next.pose, 1, next.factors.data(), num_factors, &r_reference) ==
+                Status::Ok);
+        CHECK(r.reordered == r_reference.reordered);
+        CHECK(r.refactored_fully == r_reference.refactored_fully);
+        CHECK(r.top_reordered == r_reference.top_reordered);
+        CHECK(r.ordering_prepared == r_reference.ordering_prepared);
+        CHECK(r.variables_relinearized == r_reference.variables_relinearized);
+        CHECK(r.columns_refactored == r_reference.columns_refactored);
+        CHECK(r.block_products == r_reference.block_products);
+        CHECK(r.variables_solved == r_reference.variables_solved);
+        CHECK(r.factor_blocks == r_reference.factor_blocks);
+        if (s % 20 == 19) CHECK(snapshot(*solver) == snapshot(*reference));
+        loop_closures += steps[s].edges.size() > 1 ? 1 : 0;
+        prepared = r.ordering_prepared;
+      }
+      CHECK(snapshot(*solver) == snapshot(*reference));
+      CHECK(maxPositionDiff(estimateOf(*solver), estimateOf(*reference)) == 0.0);
+    }
+  }
+  MESSAGE(failures << " failed updates, " << failures_row_updates_on
+                   << " with an overflowing loop closure and row updates on, " << failures_prepared
+                   << " with an ordering prepared (" << failures_burst_prepared
+                   << " of them bursts), " << failures_layout_pending << " with a layout pending");
+  CHECK(failures_row_updates_on > 0);
+  CHECK(failures_prepared > 0);
+  CHECK(failures_burst_prepared > 0);
+  CHECK(failures_layout_pending > 0);
 }
 
 TEST_CASE("a pool small enough to need compactions gives the estimate of one that needs none") {
