@@ -5,6 +5,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cstring>
+#include <limits>
 #include <memory>
 #include <numeric>
 #include <random>
@@ -652,9 +653,11 @@ TEST_CASE("row update: back-substitution after it equals the dense solution") {
   }
 }
 
-TEST_CASE("row update: an added column without rows and a full pool are reported, nothing kept") {
+TEST_CASE(
+    "row update: an added column without rows, a full pool and an overflowed right-hand side are "
+    "reported, nothing kept") {
   using SmallStorage = lslam::StaticCholeskyStorage<3, 40, 120>;
-  for (int which = 0; which < 2; ++which) {
+  for (int which = 0; which < 3; ++which) {
     CAPTURE(which);
     std::mt19937 rng(21);
     auto storage = std::make_unique<SmallStorage>();
@@ -694,6 +697,14 @@ TEST_CASE("row update: an added column without rows and a full pool are reported
       chol.beginUpdate(2, false);
       REQUIRE(rows(19, 20) == lslam::Status::Ok);
       CHECK(chol.finishRowUpdate() == lslam::Status::NotPositiveDefinite);
+    } else if (which == 2) {
+      // A loop closure whose whitened error overflowed (sqrt(Omega) e beyond a double): the
+      // pivots stay finite, only d does not, and nothing but the check on d would show it.
+      chol.beginUpdate(0, false);
+      const Index positions[2] = {3, 15};
+      const Block rows_t[2] = {Block::Identity(), -Block::Identity()};
+      Eigen::Vector3d rhs(1.0, std::numeric_limits<double>::infinity(), 0.0);
+      CHECK(chol.addFactorRows({positions, rows_t, 2, rhs}) == lslam::Status::NumericalOverflow);
     } else {
       // Loop closures from the first pose to ever older ones (each adds fill, so the columns on
       // its path are staged again) until the pool (120 blocks) runs out mid-path.

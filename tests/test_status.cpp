@@ -15,7 +15,8 @@ TEST_CASE("every status has its own non-empty description") {
                         Status::CapacityExhausted,
                         Status::WorkspaceExhausted,
                         Status::NotPositiveDefinite,
-                        Status::InvalidArgument};
+                        Status::InvalidArgument,
+                        Status::NumericalOverflow};
   for (Status a : all) {
     REQUIRE(lslam::toString(a) != nullptr);
     CHECK(std::strlen(lslam::toString(a)) > 0);

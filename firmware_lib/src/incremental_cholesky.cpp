@@ -361,6 +361,9 @@ Status IncrementalCholesky<D>::finishColumn(Index k) {
   // L(:,k) = C(:,k) L(k,k)^-T, and L(k,k)^-1 is lower-triangular: 6 multiply-adds per block row.
   detail::multiplyBlocksByTransposedLower<D>(blocks + 1, size - 1, l_inv);
   a_.staged_d[k] = (l_inv * a_.staged_d[k]).eval();
+  // Finite pivots do not make a finite right-hand side: a huge information times a large error
+  // (eta = J^T Omega e) overflows there alone, and the solution would be NaN with no other sign.
+  if (!a_.staged_d[k].allFinite()) return Status::NumericalOverflow;
   return Status::Ok;
 }
 

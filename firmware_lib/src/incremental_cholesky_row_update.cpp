@@ -312,6 +312,7 @@ Status IncrementalCholesky<D>::rowUpdateColumn(Index k, const Index* pattern, In
   }
   h.applyToRow(d_row, b_row_of);
   const Vector d_new = d_row.transpose();
+  if (!d_new.allFinite()) return Status::NumericalOverflow;  // as in finishColumn
   for (int m = 0; m < M; ++m) rhs[m] = b_rows[m].transpose();
   blocks[0] = detail::invertLowerTriangular<D>(l_new);
   if (!in_place) pool_end_ += size;

@@ -24,6 +24,8 @@ const char* toString(Status status) noexcept {
       return "factorization is not positive definite";
     case Status::InvalidArgument:
       return "invalid argument";
+    case Status::NumericalOverflow:
+      return "numerical overflow (information times error beyond the range of a double)";
   }
   return "unknown status";
 }
