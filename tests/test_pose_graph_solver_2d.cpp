@@ -677,10 +677,10 @@ TEST_CASE("every rejected input returns its status and leaves the solver bit-ide
     for (const BadCall& call : badCalls(n, step)) {
       CAPTURE(call.what);
       UpdateResult r;
+      const bool layout_pending = solver->factor().layoutPending();
       const Status s =
           solver->update(call.poses.data(), static_cast<Index>(call.poses.size()),
                          call.factors.data(), static_cast<Index>(call.factors.size()), &r);
-      const bool layout_pending = solver->factor().layoutPending();
       CHECK(s == call.expected);
       CHECK(r.status == call.expected);
       CHECK(snapshot(*solver) == before);

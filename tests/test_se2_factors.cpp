@@ -228,6 +228,13 @@ TEST_CASE("checkInformation rejects non-symmetric, indefinite, zero and singular
   CHECK(name(checkInformation(singular)) == name(Status::InformationNotPositiveDefinite));
   Mat3 rank_one = Vec3(1.0, 2.0, 3.0) * Vec3(1.0, 2.0, 3.0).transpose();
   CHECK(name(checkInformation(rank_one)) == name(Status::InformationNotPositiveDefinite));
+  // Finite and indefinite (its 2x2 minor on x, theta is 1e-300 - 1e600 < 0), but the elimination
+  // overflows: 1 - 1e300 * 1e300 / 1e-300 is -inf, its square root NaN, a pivot Eigen's LLT lets
+  // through. The reference: the determinant's sign, of the same minor computed as its products.
+  Mat3 overflowing;
+  overflowing << 1e-300, 0.0, 1e300, 0.0, 1.0, 0.0, 1e300, 0.0, 1.0;
+  REQUIRE(overflowing(0, 0) * overflowing(2, 2) < overflowing(0, 2) * overflowing(2, 0));
+  CHECK(name(checkInformation(overflowing)) == name(Status::InformationNotPositiveDefinite));
 
   Mat2 asymmetric2 = Mat2::Identity();
   asymmetric2(1, 0) = 0.5;

@@ -277,7 +277,7 @@ void IncrementalCholesky<D>::commitReordered() {
   in_update_ = false;
 }
 
-// The header declares the class extern: every member defined here is instantiated here.
+// Every member defined here is instantiated here (only this file sees their definitions).
 #define LSLAM_INSTANTIATE_REORDER(D)                                                               \
   template Index IncrementalCholesky<D>::collectAffectedTop();                                     \
   template Index IncrementalCholesky<D>::affectedTopSize();                                        \

@@ -425,8 +425,8 @@ Status IncrementalCholesky<D>::finishRowUpdate() {
   return Status::Ok;
 }
 
-// The member templates (over M) are instantiated by their uses above; `extern template class`
-// in the header keeps the plain members from that, so they are instantiated here.
+// The member templates (over M) are instantiated by their uses above; the plain members are
+// instantiated here (only this file sees their definitions).
 #define LSLAM_INSTANTIATE_ROW_UPDATE(D)                                                        \
   template void IncrementalCholesky<D>::loadFactorRows(const FactorRows&, Index*, Block*);     \
   template Index IncrementalCholesky<D>::uniteRows(const Index*, Index, const Index*, Index,   \

@@ -18,8 +18,12 @@ Status check(const Eigen::Matrix<double, N, N>& information) noexcept {
   if (asymmetry > kSymmetryTolerance * scale) return Status::InformationNotPositiveDefinite;
   // Fixed-size LLT: no allocation. It reads only the lower triangle, which the symmetry test
   // above makes representative of the whole matrix.
+  // LLT fails only on a pivot <= 0; an intermediate overflow (inf - inf) gives a NaN pivot, which
+  // passes that test (finite, indefinite [1e-300 0 1e300; 0 1 0; 1e300 0 1] did), so the factor
+  // must be finite too.
   const Eigen::LLT<Eigen::Matrix<double, N, N>> llt(information);
-  return llt.info() == Eigen::Success ? Status::Ok : Status::InformationNotPositiveDefinite;
+  const bool positive_definite = llt.info() == Eigen::Success && llt.matrixLLT().allFinite();
+  return positive_definite ? Status::Ok : Status::InformationNotPositiveDefinite;
 }
 
 }  // namespace

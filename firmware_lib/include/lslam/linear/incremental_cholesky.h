@@ -385,8 +385,11 @@ class StaticCholeskyStorage {
   alignas(32) double solution_[MaxColumns * detail::kSolutionStride<D>];
 };
 
-extern template class IncrementalCholesky<2>;
-extern template class IncrementalCholesky<3>;
-extern template class IncrementalCholesky<6>;
+// Block sizes 2, 3 and 6 are compiled once each: every member defined out of the class is
+// instantiated, member by member, in the source file that defines it
+// (src/incremental_cholesky*.cpp); the members defined in the class body are inline and
+// instantiated where they are used. No `extern template class` here: with it, GCC at -O0 expects
+// those inline members from an explicit instantiation of the whole class, which the sources no
+// longer have (see incremental_cholesky.cpp).
 
 }  // namespace lslam

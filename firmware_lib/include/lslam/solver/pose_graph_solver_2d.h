@@ -6,8 +6,9 @@
 // template parameters of StaticPoseGraphSolver2D); update() and the rest never allocate. All the
 // logic lives in the size-erased PoseGraphSolver2D, compiled once for every capacity.
 //
-// A call that returns anything but Status::Ok has changed nothing: inputs are validated before
-// any change, and the factorization writes to staging memory until it has succeeded.
+// A call that returns anything but Status::Ok has changed no value: inputs are validated before
+// any change, and the factorization writes to staging memory until it has succeeded (a rejected
+// update may have done the solve layout a full refactorization left pending, a storage order).
 #include <cstddef>
 #include <cstdint>
 
