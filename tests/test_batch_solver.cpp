@@ -24,6 +24,7 @@ using lslam::sim::BatchOptions;
 using lslam::sim::BatchResult;
 using lslam::sim::chi2G2o;
 using lslam::sim::Dataset2D;
+using lslam::sim::FixedPose;
 using lslam::sim::Edge2D;
 using lslam::sim::edgeErrorG2o;
 using lslam::sim::edgeJacobiansG2o;
@@ -180,7 +181,7 @@ bool loadG2o(const std::string& path, Dataset2D* d) {
     } else if (tag == "FIX") {
       std::int64_t id = 0;
       s >> id;
-      d->fixed.push_back(id);
+      d->fixed.push_back(FixedPose{id, 0});
     }
   }
   d->name = path;
@@ -435,7 +436,7 @@ TEST_CASE("gauge: explicit fixed ids, FIX ids, default smallest id; other poses 
   }
   {
     Dataset2D d = s.d;
-    d.fixed = {ids[3]};
+    d.fixed = {{ids[3], 0}};
     const BatchResult r = solveBatch2D(d, s.initial);
     CHECK(r.converged);
     CHECK(poseDistance(r.poses.at(ids[3]), s.initial.at(ids[3])) == 0.0);

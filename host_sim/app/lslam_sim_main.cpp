@@ -104,7 +104,7 @@ void writeEstimate(const std::string& path, const Dataset2D& d, const Incrementa
   std::sort(ids.begin(), ids.end());
   for (std::int64_t id : ids) out.vertices.push_back(Vertex2D{id, run.estimate.at(id), 0});
   out.edges = d.edges;
-  if (run.anchor >= 0) out.fixed = {run.anchor};
+  if (run.anchor >= 0) out.fixed = {FixedPose{run.anchor, 0}};
   writeG2oFile(path, out);
 }
 
@@ -119,11 +119,13 @@ int run(const RunArgs& args) {
   options.solve_every = args.solve_every;
   options.solver = args.solver;
   const IncrementalRun inc = runIncremental(d, options);
+  if (!inc.gauge_note.empty())
+    std::fprintf(stderr, "lslam-sim: note: %s\n", inc.gauge_note.c_str());
   const double chi2_inc = chi2G2o(d, inc.estimate);
   const double chi2_initial = chi2G2o(d, inc.initial);
 
-  // The batch holds the pose the incremental solver anchors fixed (the same gauge), which is the
-  // file's FIX if it has one (runIncremental rejects a FIX of any other pose).
+  // The batch holds the pose the incremental solver anchors fixed (the same gauge), whatever pose
+  // the file's FIX names (runIncremental notes it; FIX of two poses it rejects).
   BatchOptions batch_options;
   if (inc.anchor >= 0) batch_options.fixed = {inc.anchor};
   const BatchResult batch = solveBatch2D(d, inc.initial, batch_options);

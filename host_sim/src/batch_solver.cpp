@@ -112,7 +112,9 @@ class Problem {
 Problem::Problem(const Dataset2D& d, const Estimate2D& initial, const BatchOptions& options) {
   // Fixed set (the gauge).
   std::unordered_set<std::int64_t> fixed(options.fixed.begin(), options.fixed.end());
-  if (fixed.empty()) fixed.insert(d.fixed.begin(), d.fixed.end());
+  if (fixed.empty()) {
+    for (const FixedPose& f : d.fixed) fixed.insert(f.id);
+  }
   if (fixed.empty() && !d.edges.empty()) {
     std::int64_t smallest = std::numeric_limits<std::int64_t>::max();
     for (const Edge2D& e : d.edges) smallest = std::min({smallest, e.from, e.to});

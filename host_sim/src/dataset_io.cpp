@@ -1,6 +1,5 @@
 #include "host_sim/dataset_io.h"
 
-#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <array>
@@ -19,6 +18,8 @@
 #include <system_error>
 #include <unordered_map>
 #include <utility>
+
+#include "lslam/factors/information.h"
 
 namespace lslam::sim {
 
@@ -180,13 +181,10 @@ class FieldParser {
   const Record& r_;
 };
 
-// The information must be symmetric positive definite (the solvers factorize it): checked with
-// Eigen's Cholesky factorization, which also fails on a singular (only semi-definite) matrix.
-// `m` is symmetric by construction.
+// The information must be symmetric positive definite (the solvers factorize it): the solver's
+// own check, so that the reader rejects, with its line, exactly what the solver would.
 bool isPositiveDefinite(const Eigen::Matrix3d& m) {
-  const Eigen::LLT<Eigen::Matrix3d> llt(m);
-  // Intermediate overflow (Inf - Inf) gives NaN pivots, which LLT's "pivot <= 0" test lets pass.
-  return llt.info() == Eigen::Success && llt.matrixLLT().allFinite();
+  return lslam::checkInformation(m) == lslam::Status::Ok;
 }
 
 std::string formatDouble(double v) {
@@ -331,12 +329,11 @@ void checkDeclared(const Dataset2D& d,
              std::to_string(id) + ", which no " + vertex_tag + " line declares";
     break;  // edges are in file order: the first is the earliest
   }
-  for (std::size_t k = 0; k < d.fixed.size(); ++k) {
-    const std::size_t line = k < d.fixed_lines.size() ? d.fixed_lines[k] : 0;
-    if (declared(d.fixed[k]) || (bad_line != 0 && line >= bad_line)) continue;
-    bad_line = line;
-    reason = "FIX names pose " + std::to_string(d.fixed[k]) + ", which no " + vertex_tag +
-             " line declares";
+  for (const FixedPose& f : d.fixed) {
+    if (declared(f.id) || (bad_line != 0 && f.line >= bad_line)) continue;
+    bad_line = f.line;
+    reason =
+        "FIX names pose " + std::to_string(f.id) + ", which no " + vertex_tag + " line declares";
     break;
   }
   if (!reason.empty()) throw DatasetError(d.name, bad_line, reason);
@@ -426,8 +423,7 @@ Dataset2D parseImpl(std::istream& in, const std::string& name,
         const FieldParser p(name, r);
         if (r.tokens.size() < 2) p.fail("FIX: expected at least 2 fields, got 1 (no id)");
         for (std::size_t k = 1; k < r.tokens.size(); ++k) {
-          d.fixed.push_back(p.id(k, "id"));
-          d.fixed_lines.push_back(r.line);
+          d.fixed.push_back(FixedPose{p.id(k, "id"), r.line});
         }
         break;
       }
@@ -580,7 +576,9 @@ void writeG2o(std::ostream& out, const std::vector<Vertex2D>& vertices,
 }
 
 void writeG2o(std::ostream& out, const Dataset2D& dataset) {
-  writeG2o(out, dataset.vertices, dataset.edges, dataset.fixed);
+  std::vector<std::int64_t> fixed;
+  for (const FixedPose& f : dataset.fixed) fixed.push_back(f.id);
+  writeG2o(out, dataset.vertices, dataset.edges, fixed);
 }
 
 void writeG2oFile(const std::string& path, const Dataset2D& dataset) {

@@ -68,18 +68,25 @@ ZeroedSolver makeZeroedSolver(const SolverOptions& options) {
   return ZeroedSolver(new (memory) HostSolver2D(options));
 }
 
-// The incremental solver anchors step 0's pose and knows no FIX; fixing another pose would make
-// the batch solver (which honours FIX) solve a different problem.
-void checkFixed(const Dataset2D& d, std::int64_t anchor) {
-  for (std::size_t k = 0; k < d.fixed.size(); ++k) {
-    if (d.fixed[k] == anchor) continue;
-    const std::size_t line = k < d.fixed_lines.size() ? d.fixed_lines[k] : 0;
-    const std::string anchored =
-        anchor < 0 ? std::string("the dataset has no pose for the incremental solver to anchor")
-                   : "the incremental solver anchors pose " + std::to_string(anchor) +
-                         " (its first pose); fixing another pose is not supported";
-    throw DatasetError(d.name, line, "FIX " + std::to_string(d.fixed[k]) + ": " + anchored);
+// The incremental solver anchors step 0's pose and knows no FIX. One fixed pose only sets the
+// gauge: anchoring another pose gives the same optimum moved rigidly, so a FIX of another pose is
+// noted (and the batch reference anchors the same pose as the solver). Two fixed poses constrain
+// the problem itself, which the solver cannot do: an error at the FIX naming the second one.
+std::string checkFixed(const Dataset2D& d, std::int64_t anchor) {
+  if (d.fixed.empty()) return {};
+  const FixedPose& first = d.fixed.front();
+  for (const FixedPose& f : d.fixed) {
+    if (f.id == first.id) continue;
+    throw DatasetError(d.name, f.line,
+                       "FIX " + std::to_string(f.id) + ": a second fixed pose (FIX " +
+                           std::to_string(first.id) + " at line " + std::to_string(first.line) +
+                           "); the incremental solver fixes one pose, its first");
   }
+  if (first.id == anchor || anchor < 0) return {};
+  return d.name + ":" + std::to_string(first.line) + ": FIX " + std::to_string(first.id) +
+         ": the incremental solver anchors pose " + std::to_string(anchor) +
+         " (its first) instead, and so does the batch reference; the optimum is the same up to a "
+         "rigid motion";
 }
 
 // "step 4 (pose 4, edges at lines 9, 12) rejected: <status>", at the first edge's line.
@@ -108,7 +115,7 @@ void checkFixed(const Dataset2D& d, std::int64_t anchor) {
 IncrementalRun runIncremental(const Dataset2D& d, const IncrementalOptions& options) {
   const std::vector<Step> steps = buildSteps(d, options.order);
   const std::int64_t anchor = steps.empty() ? -1 : steps.front().new_pose;
-  checkFixed(d, anchor);
+  const std::string gauge_note = checkFixed(d, anchor);
   const Estimate2D vertices = estimateFromVertices(d);
   SolverOptions solver_options = options.solver;
   solver_options.solve_after_update = false;  // solve() below, every N steps
@@ -116,6 +123,7 @@ IncrementalRun runIncremental(const Dataset2D& d, const IncrementalOptions& opti
 
   IncrementalRun run;
   run.anchor = anchor;
+  run.gauge_note = gauge_note;
   run.solver_bytes = sizeof(HostSolver2D);
   run.steps.reserve(steps.size());
   std::vector<FactorInput> factors;

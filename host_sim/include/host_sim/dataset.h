@@ -33,15 +33,19 @@ struct Edge2D {
   std::size_t line = 0;
 };
 
+// A pose named by a FIX line, and that line (0: not from a file).
+struct FixedPose {
+  std::int64_t id = 0;
+  std::size_t line = 0;
+  bool operator==(const FixedPose& other) const { return id == other.id && line == other.line; }
+};
+
 struct Dataset2D {
   std::string name;  // file name as given
   DatasetFormat format = DatasetFormat::G2o;
-  std::vector<Vertex2D> vertices;   // file order; empty for edge-only files (iSAM)
-  std::vector<Edge2D> edges;        // file order
-  std::vector<std::int64_t> fixed;  // ids named by FIX lines
-  // Line of each FIX id (same index as `fixed`; may be shorter or empty for datasets not read
-  // from a file, whose FIX ids then count as line 0).
-  std::vector<std::size_t> fixed_lines;
+  std::vector<Vertex2D> vertices;  // file order; empty for edge-only files (iSAM)
+  std::vector<Edge2D> edges;       // file order
+  std::vector<FixedPose> fixed;    // every id named by FIX lines, in file order
 };
 
 // Thrown by the readers: which file, which line (1-based), and why.

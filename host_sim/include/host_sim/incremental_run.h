@@ -47,13 +47,14 @@ struct IncrementalRun {
   Index factor_blocks = 0;
   Index reorders = 0;
   std::int64_t anchor = -1;  // the pose the solver anchors: step 0's pose (-1: no steps)
+  std::string gauge_note;    // "file:line: FIX ..." when the file fixes another pose (else empty)
 };
 
 // The solver anchors the first step's pose with a prior (SolverOptions::anchor_information) and
-// has no FIX: a dataset whose FIX lines name any other pose throws DatasetError at that FIX line
-// (a FIX of exactly the anchor is accepted). If the solver rejects a step, throws DatasetError at
-// the line of the step's first edge (the reason names the step, its pose, the lines of its edges
-// and the solver's status). Whatever buildSteps throws.
+// has no FIX: a FIX of one other pose only moves the gauge, and is reported in gauge_note; FIX
+// lines naming two different poses throw DatasetError at the line naming the second. If the solver
+// rejects a step, throws DatasetError at the line of the step's first edge (the reason names the
+// step, its pose, the lines of its edges and the solver's status). Whatever buildSteps throws.
 IncrementalRun runIncremental(const Dataset2D& dataset, const IncrementalOptions& options);
 
 // The solver's inputs for one edge.
