@@ -212,6 +212,7 @@ int generate(int argc, char** argv) {
         options.seed = static_cast<std::uint32_t>(*n);
       }
     } else {
+      std::fprintf(stderr, "lslam-sim: unknown option %s\n", jsonString(a).c_str());
       return usage();
     }
   }
