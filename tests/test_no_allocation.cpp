@@ -1,6 +1,11 @@
 // Proof that the solver never touches the heap after construction: every heap call of the process
-// is counted while a whole manhattanOlson3500 run goes through it (a synthetic world of the same
-// size when the dataset is absent), from the first update to the last and the final optimize().
+// is counted while the solver runs, and each counted span must see none. The spans: a whole
+// manhattanOlson3500 run and its final optimize() (a synthetic world of the same size when the
+// dataset is absent); rejected and rolled-back updates of every kind interleaved with valid steps;
+// a run with reordered updates (SolverOptions::reorder_affected_top); a run in a pool small enough
+// to need compactions; and solve(true), optimize() and the estimate's reads. Each span also checks
+// that its path really ran (the statuses, reorderings and compactions it reports), so that a zero
+// cannot come from a path that was never taken. Every input is built before counting starts.
 //
 // The counting sits at the allocator, not in the code that calls it. This executable defines the C
 // allocator's entry points (malloc, calloc, realloc, reallocarray, free, aligned_alloc,
@@ -12,26 +17,36 @@
 // counted apart. Controls show that each entry point, and a vector, an Eigen matrix and a raw
 // malloc while counting, are seen, so a run that counts nothing is not a counter that sees nothing.
 //
-// Debian 12 (glibc 2.36) x86-64.
+// glibc only (__libc_malloc and the rest are glibc's): elsewhere this file compiles to one test
+// case that reports the check skipped. Debian 12 (glibc 2.36) x86-64.
 #include <doctest/doctest.h>
+
+#include <cstddef>
+#include <cstdlib>  // defines __GLIBC__ (through <features.h>) where the C library is glibc
+
+#if defined(__GLIBC__)
+
 #include <malloc.h>
 
 #include <Eigen/Core>
 #include <atomic>
 #include <cerrno>
-#include <cstddef>
+#include <cmath>
 #include <cstdint>
-#include <cstdlib>
 #include <fstream>
+#include <limits>
 #include <memory>
 #include <new>
 #include <string>
 #include <vector>
 
+#include "host_sim/chi2.h"
 #include "host_sim/dataset_io.h"
 #include "host_sim/incremental_run.h"
 #include "host_sim/steps.h"
 #include "host_sim/synthetic.h"
+#include "lslam/factors/information.h"
+#include "lslam/solver/pose_graph_solver_2d.h"
 
 // glibc's allocator under its own names (exported for exactly this use).
 extern "C" {
@@ -374,6 +389,49 @@ TEST_CASE("every heap entry point of the process is counted while counting, and 
             .total() == cpp.total());
 }
 
+namespace {
+
+// One online run's inputs, a pose and its factors per step, all built before counting starts.
+struct RunInputs {
+  std::vector<PoseInput> poses;
+  std::vector<std::vector<FactorInput>> factors;
+  std::size_t size() const { return poses.size(); }
+};
+
+// The dataset's online steps, each new pose initialized from `initial` (zero if absent there).
+RunInputs prepareRun(const Dataset2D& d, const Estimate2D& initial) {
+  const std::vector<Step> steps = buildSteps(d, StepOrder::Online);
+  RunInputs in;
+  in.poses.resize(steps.size());
+  in.factors.resize(steps.size());
+  for (std::size_t s = 0; s < steps.size(); ++s) {
+    in.poses[s].id = steps[s].new_pose;
+    if (auto it = initial.find(steps[s].new_pose); it != initial.end())
+      in.poses[s].initial = SE2(it->second.x, it->second.y, it->second.theta);
+    for (std::size_t e : steps[s].edges) in.factors[s].push_back(toFactorInput(d.edges[e]));
+  }
+  return in;
+}
+
+// One call of update() on prepared inputs: touches no memory of its own.
+Status update(PoseGraphSolver2D& solver, const PoseInput& pose,
+              const std::vector<FactorInput>& factors, UpdateResult* result = nullptr) {
+  return solver.update(&pose, 1, factors.data(), static_cast<Index>(factors.size()), result);
+}
+
+// A span that must not have called the heap at all.
+void checkNoHeapCalls(const HeapCalls& calls, const std::string& span) {
+  CAPTURE(span);
+  MESSAGE(span << ": " << calls.c_allocations << " C allocations, " << calls.c_frees << " frees, "
+               << calls.news << " new, " << calls.deletes << " delete");
+  CHECK(calls.c_allocations == 0);
+  CHECK(calls.c_frees == 0);
+  CHECK(calls.news == 0);
+  CHECK(calls.deletes == 0);
+}
+
+}  // namespace
+
 TEST_CASE("no heap allocation from the first step to the last of a whole run") {
   // Reading and preparing the input is counted too: allocations in the host library's code (not
   // this file's) must be seen, or the run's zero below would prove nothing about the solver's.
@@ -392,24 +450,14 @@ TEST_CASE("no heap allocation from the first step to the last of a whole run") {
   CHECK(reading.news > 0);
   // Every input is prepared before counting starts: the robot holds them in its own buffers.
   // Initial values come from the file (vertices, or zero): the point here is memory, not accuracy.
-  const std::vector<Step> steps = buildSteps(d, StepOrder::Online);
-  const Estimate2D vertices = estimateFromVertices(d);
-  std::vector<PoseInput> poses(steps.size());
-  std::vector<std::vector<FactorInput>> factors(steps.size());
-  for (std::size_t s = 0; s < steps.size(); ++s) {
-    poses[s].id = steps[s].new_pose;
-    if (auto it = vertices.find(steps[s].new_pose); it != vertices.end())
-      poses[s].initial = SE2(it->second.x, it->second.y, it->second.theta);
-    for (std::size_t e : steps[s].edges) factors[s].push_back(toFactorInput(d.edges[e]));
-  }
+  const RunInputs in = prepareRun(d, estimateFromVertices(d));
   auto solver = std::make_unique<HostSolver2D>();
 
   Status worst = Status::Ok;
   Status optimized = Status::Ok;
   const HeapCalls run = countHeapCalls([&] {
-    for (std::size_t s = 0; s < steps.size(); ++s) {
-      const Status status =
-          solver->update(&poses[s], 1, factors[s].data(), static_cast<Index>(factors[s].size()));
+    for (std::size_t s = 0; s < in.size(); ++s) {
+      const Status status = update(*solver, in.poses[s], in.factors[s]);
       if (status != Status::Ok) worst = status;
     }
     optimized = solver->optimize(5, 1e-9);
@@ -417,8 +465,8 @@ TEST_CASE("no heap allocation from the first step to the last of a whole run") {
 
   CHECK(worst == Status::Ok);
   CHECK(optimized == Status::Ok);
-  CHECK(solver->poses() == static_cast<Index>(steps.size()));
-  MESSAGE("heap calls over " << steps.size() << " updates and optimize(): " << run.c_allocations
+  CHECK(solver->poses() == static_cast<Index>(in.size()));
+  MESSAGE("heap calls over " << in.size() << " updates and optimize(): " << run.c_allocations
                              << " C allocations, " << run.c_frees << " frees, " << run.news
                              << " new, " << run.deletes << " delete (reading the input: "
                              << reading.c_allocations << ", " << reading.c_frees << ", "
@@ -456,3 +504,465 @@ TEST_CASE("no heap allocation from the first step to the last of a whole run") {
   CHECK(raw.c_frees == 1);
   CHECK(raw.news == 0);
 }
+
+namespace {
+
+// Room for a 400-pose synthetic world, its factor far below the pool.
+using SmallSolver = StaticPoseGraphSolver2D<400, 1200, 60000>;
+// A pool small enough that a 300-pose world needs compactions (the size
+// test_pose_graph_solver_2d's compaction test uses).
+using TightSolver = StaticPoseGraphSolver2D<400, 1200, 6000>;
+
+SyntheticWorld syntheticWorld(int poses, std::uint32_t seed) {
+  SyntheticOptions o;
+  o.poses = poses;
+  o.seed = seed;
+  return generateManhattanWorld(o);
+}
+
+Estimate2D groundTruth(const SyntheticWorld& world) {
+  Estimate2D e;
+  for (std::size_t i = 0; i < world.ground_truth.size(); ++i)
+    e[static_cast<std::int64_t>(i)] = world.ground_truth[i];
+  return e;
+}
+
+// Options that reorder the small worlds too, as the solver tests do.
+SolverOptions smallWorldOptions() {
+  SolverOptions options;
+  options.reorder_min_variables = 20;
+  return options;
+}
+
+// Feeds every step, each step's status and result into the caller's arrays (sized to the run).
+void feedAll(PoseGraphSolver2D& solver, const RunInputs& in, std::vector<Status>& statuses,
+             std::vector<UpdateResult>& results) {
+  for (std::size_t s = 0; s < in.size(); ++s)
+    statuses[s] = update(solver, in.poses[s], in.factors[s], &results[s]);
+}
+
+int countNotOk(const std::vector<Status>& statuses) {
+  int n = 0;
+  for (const Status s : statuses) n += s == Status::Ok ? 0 : 1;
+  return n;
+}
+
+template <class Flag>
+int countResults(const std::vector<UpdateResult>& results, Flag flag) {
+  int n = 0;
+  for (const UpdateResult& r : results) n += flag(r) ? 1 : 0;
+  return n;
+}
+
+FactorInput between(VariableId from, VariableId to, const SE2& z, const Mat3& information) {
+  FactorInput f;
+  f.kind = FactorKind::BetweenSE2;
+  f.from = from;
+  f.to = to;
+  f.measurement = z;
+  f.information = information;
+  return f;
+}
+
+// Passes the information check, and a between factor longer than ~0.45 m overflows its Hessian
+// block: the factorization meets a non-finite pivot (NotPositiveDefinite).
+Mat3 overflowingInformation() {
+  return Mat3::Identity() * 1.5e308;
+}
+
+// Finite information and error whose product (J^T Omega e) is not: NumericalOverflow.
+Mat3 hugeInformation() {
+  return Mat3::Identity() * 1e300;
+}
+
+// The rejected calls, each the kind of input one check of update() refuses.
+enum class Rejection {
+  NanMeasurement,
+  InfInitialValue,
+  IndefiniteInformation,
+  UnknownPose,
+  DuplicatePose,
+  UnconstrainedPose,
+  SelfLoop,
+  OverflowingOdometry,         // factorization: NotPositiveDefinite in the new columns
+  OverflowingLoopClosure,      // factorization: NotPositiveDefinite in a row update
+  OverflowingBurst,            // factorization: NotPositiveDefinite in a fresh ordering
+  OverflowingError,            // the new pose's eta beyond a double: NumericalOverflow
+  OverflowingErrorLoopClosure  // the same in a loop closure alone
+};
+constexpr int kRejections = 12;
+
+const char* rejectionName(Rejection kind) {
+  constexpr const char* kNames[kRejections] = {"NaN in a measurement",
+                                               "Inf in an initial value",
+                                               "indefinite information",
+                                               "unknown pose id",
+                                               "duplicate pose id",
+                                               "unconstrained new pose",
+                                               "self loop",
+                                               "the next step, its odometry overflowing",
+                                               "an overflowing loop closure alone",
+                                               "a burst of overflowing loop closures",
+                                               "the next step, its odometry's error overflowing",
+                                               "a loop closure alone, its error overflowing"};
+  return kNames[static_cast<int>(kind)];
+}
+
+// More loop closures than this in one update reorder at once (reorder_burst_loop_closures): above
+// the synthetic worlds' 2 per step, so only the rejected bursts do.
+constexpr Index kBurst = 2;
+
+struct RejectedCall {
+  std::size_t before_step = 0;  // issued just before this valid step
+  Rejection kind = Rejection::NanMeasurement;
+  std::vector<PoseInput> poses;
+  std::vector<FactorInput> factors;
+  Status expected = Status::Ok;
+  // A second status the call may return instead (Ok: none). See Rejection::OverflowingError.
+  Status also_accepted = Status::Ok;
+};
+
+// An earlier pose (id below `to`) at least 3 m from pose `to` in the ground truth, the pick-th of
+// them modulo their number; -1 if there is none. The estimates are within centimetres of the
+// truth, so such a loop closure's poses are far beyond the 0.45 m that overflow.
+std::int64_t farEarlierPose(const std::vector<Pose2D>& truth, std::int64_t to, std::size_t pick) {
+  std::vector<std::int64_t> far;
+  const Pose2D& p = truth[static_cast<std::size_t>(to)];
+  for (std::int64_t j = 0; j < to; ++j) {
+    const Pose2D& q = truth[static_cast<std::size_t>(j)];
+    if (std::hypot(p.x - q.x, p.y - q.y) >= 3.0) far.push_back(j);
+  }
+  return far.empty() ? -1 : far[pick % far.size()];
+}
+
+// A loop closure from `from` to `to`, measured as in the truth, its information overflowing.
+FactorInput overflowingLoopClosure(const std::vector<Pose2D>& truth, std::int64_t from,
+                                   std::int64_t to) {
+  const Pose2D z =
+      relativePose(truth[static_cast<std::size_t>(from)], truth[static_cast<std::size_t>(to)]);
+  return between(from, to, SE2(z.x, z.y, z.theta), overflowingInformation());
+}
+
+// A call of the given kind just before valid step s (poses 0 .. s - 1 exist; step s adds pose s).
+RejectedCall rejectedCall(Rejection kind, const RunInputs& in, std::size_t s,
+                          const std::vector<Pose2D>& truth) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  const VariableId n = in.poses[s].id;
+  REQUIRE(n == static_cast<VariableId>(s));
+  REQUIRE(in.factors[s].front().from == n - 1);  // the step's odometry, 1 m long
+  RejectedCall c;
+  c.before_step = s;
+  c.kind = kind;
+  c.poses = {in.poses[s]};
+  c.factors = in.factors[s];
+  const SE2 one(1.0, 0.0, 0.0);
+  switch (kind) {
+    case Rejection::NanMeasurement:
+      c.factors.front().measurement = SE2(nan, 0.0, 0.0);
+      c.expected = Status::NonFiniteInput;
+      break;
+    case Rejection::InfInitialValue:
+      c.poses.front().initial = SE2(inf, 0.0, 0.0);
+      c.expected = Status::NonFiniteInput;
+      break;
+    case Rejection::IndefiniteInformation:
+      c.factors.front().information(2, 2) = -1.0;
+      c.expected = Status::InformationNotPositiveDefinite;
+      break;
+    case Rejection::UnknownPose:
+      c.factors.push_back(between(n + 47, n, one, Mat3::Identity()));
+      c.expected = Status::UnknownVariable;
+      break;
+    case Rejection::DuplicatePose:
+      c.poses = {PoseInput{n - 5, SE2()}};
+      c.factors = {between(n - 6, n - 5, one, Mat3::Identity())};
+      c.expected = Status::DuplicateVariable;
+      break;
+    case Rejection::UnconstrainedPose:
+      c.poses.push_back(PoseInput{n + 1, SE2()});
+      c.expected = Status::UnconstrainedVariable;
+      break;
+    case Rejection::SelfLoop:
+      c.factors.push_back(between(n, n, one, Mat3::Identity()));
+      c.expected = Status::InvalidArgument;
+      break;
+    case Rejection::OverflowingOdometry:
+      c.factors.front().information = overflowingInformation();
+      c.expected = Status::NotPositiveDefinite;
+      break;
+    case Rejection::OverflowingLoopClosure: {
+      const std::int64_t from = farEarlierPose(truth, n - 1, s);
+      REQUIRE(from >= 0);
+      c.poses.clear();
+      c.factors = {overflowingLoopClosure(truth, from, n - 1)};
+      c.expected = Status::NotPositiveDefinite;
+      break;
+    }
+    case Rejection::OverflowingBurst:
+      // Between poses before the newest (the newest goes last in any ordering: a burst to it
+      // alone would order as the prepared ordering does).
+      c.poses.clear();
+      c.factors.clear();
+      for (std::int64_t to = n - 2; to > 0 && static_cast<Index>(c.factors.size()) <= kBurst;
+           to -= 3) {
+        const std::int64_t from = farEarlierPose(truth, to, s);
+        if (from >= 0) c.factors.push_back(overflowingLoopClosure(truth, from, to));
+      }
+      REQUIRE(static_cast<Index>(c.factors.size()) > kBurst);
+      c.expected = Status::NotPositiveDefinite;
+      break;
+    case Rejection::OverflowingError:
+      // The recomputing path meets the overflow at pose n - 1's column. When the step also
+      // carries loop closures to the new pose and nothing is relinearized, the row-update path
+      // meets a non-positive pivot first (the odometry's whitened rows, ~1e150 times the others,
+      // leave the new column nothing but rounding): seed 5 steps 166, 202, 226, 298, 358 and 394.
+      // Also a rollback, so accepted here; this test is about memory.
+      c.factors.front() = between(n - 1, n, SE2(1e10, 0.0, 0.0), hugeInformation());
+      c.expected = Status::NumericalOverflow;
+      c.also_accepted = Status::NotPositiveDefinite;
+      break;
+    case Rejection::OverflowingErrorLoopClosure:
+      c.poses.clear();
+      c.factors = {between(n / 2, n - 1, SE2(1e200, 0.0, 0.0), hugeInformation())};
+      c.expected = Status::NumericalOverflow;
+      break;
+  }
+  return c;
+}
+
+// Whether two solvers hold the same estimate, bit for bit.
+bool sameEstimate(const PoseGraphSolver2D& a, const PoseGraphSolver2D& b) {
+  if (a.poses() != b.poses()) return false;
+  for (Index v = 0; v < a.poses(); ++v) {
+    const SE2 p = a.estimateAt(v);
+    const SE2 q = b.estimateAt(v);
+    if (a.idAt(v) != b.idAt(v) || p.x() != q.x() || p.y() != q.y() || p.theta() != q.theta())
+      return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+TEST_CASE("no heap allocation in rejected and rolled-back updates between valid steps") {
+  // A world that fills the solver's poses exactly. From step 30 on, one rejected call before
+  // every valid step, its kind cycling: each kind meets many states (an ordering prepared, a
+  // layout pending, just reordered). The last call adds a pose past the capacity.
+  const SyntheticWorld world = syntheticWorld(SmallSolver::max_poses, 5);
+  const RunInputs in = prepareRun(world.dataset, groundTruth(world));
+  REQUIRE(checkInformation(overflowingInformation()) == Status::Ok);
+  REQUIRE(checkInformation(hugeInformation()) == Status::Ok);
+  std::vector<RejectedCall> rejected;
+  for (std::size_t s = 30; s < in.size(); ++s)
+    rejected.push_back(
+        rejectedCall(static_cast<Rejection>(s % kRejections), in, s, world.ground_truth));
+  const VariableId past = static_cast<VariableId>(in.size());
+  const PoseInput past_capacity{past, SE2(0.0, 0.0, 0.0)};
+  const std::vector<FactorInput> past_capacity_factors = {
+      between(past - 1, past, SE2(1.0, 0.0, 0.0), Mat3::Identity())};
+
+  SolverOptions options = smallWorldOptions();
+  options.reorder_burst_loop_closures = kBurst;
+  auto solver = std::make_unique<SmallSolver>(options);
+  std::vector<Status> statuses(in.size(), Status::Ok);
+  std::vector<UpdateResult> results(in.size());
+  std::vector<Status> rejected_statuses(rejected.size(), Status::Ok);
+  std::vector<UpdateResult> rejected_results(rejected.size());
+  std::vector<std::uint8_t> layout_pending(rejected.size(), 0);
+  Status capacity = Status::Ok;
+  const HeapCalls calls = countHeapCalls([&] {
+    std::size_t next = 0;  // the next rejected call
+    for (std::size_t s = 0; s < in.size(); ++s) {
+      for (; next < rejected.size() && rejected[next].before_step == s; ++next) {
+        const RejectedCall& c = rejected[next];
+        layout_pending[next] = solver->factor().layoutPending() ? 1 : 0;
+        rejected_statuses[next] =
+            solver->update(c.poses.data(), static_cast<Index>(c.poses.size()), c.factors.data(),
+                           static_cast<Index>(c.factors.size()), &rejected_results[next]);
+      }
+      statuses[s] = update(*solver, in.poses[s], in.factors[s], &results[s]);
+    }
+    capacity = update(*solver, past_capacity, past_capacity_factors);
+  });
+  checkNoHeapCalls(calls, "rejected updates between valid steps");
+
+  // Every valid step was taken, every rejected call returned its status.
+  CHECK(countNotOk(statuses) == 0);
+  CHECK(solver->poses() == static_cast<Index>(in.size()));
+  CHECK(capacity == Status::CapacityExhausted);
+  int per_kind[kRejections] = {};  // calls that returned their kind's own status
+  int also_accepted = 0;
+  int with_ordering_prepared = 0;
+  int with_layout_pending = 0;
+  int factorization_failures = 0;
+  for (std::size_t i = 0; i < rejected.size(); ++i) {
+    const RejectedCall& c = rejected[i];
+    const std::string kind = rejectionName(c.kind);
+    const std::string returned = toString(rejected_statuses[i]);
+    const std::string expected = toString(c.expected);
+    CAPTURE(kind);
+    CAPTURE(c.before_step);
+    CAPTURE(returned);
+    CAPTURE(expected);
+    const bool accepted =
+        rejected_statuses[i] == c.expected ||
+        (c.also_accepted != Status::Ok && rejected_statuses[i] == c.also_accepted);
+    CHECK(accepted);
+    CHECK(rejected_results[i].status == rejected_statuses[i]);
+    per_kind[static_cast<int>(c.kind)] += rejected_statuses[i] == c.expected ? 1 : 0;
+    also_accepted += rejected_statuses[i] == c.expected ? 0 : 1;
+    const bool factorizes =
+        c.expected == Status::NotPositiveDefinite || c.expected == Status::NumericalOverflow;
+    factorization_failures += factorizes ? 1 : 0;
+    with_ordering_prepared += factorizes && results[c.before_step - 1].ordering_prepared ? 1 : 0;
+    with_layout_pending += factorizes && layout_pending[i] != 0 ? 1 : 0;
+  }
+  for (int k = 0; k < kRejections; ++k) {
+    const std::string kind = rejectionName(static_cast<Rejection>(k));
+    CAPTURE(kind);
+    CHECK(per_kind[k] > 0);
+  }
+  MESSAGE(rejected.size() << " rejected calls (" << also_accepted
+                          << " NotPositiveDefinite for an overflowing error), "
+                          << factorization_failures << " of them failed factorizations ("
+                          << with_ordering_prepared << " with an ordering prepared, "
+                          << with_layout_pending << " with a layout pending)");
+  CHECK(with_ordering_prepared > 0);
+  CHECK(with_layout_pending > 0);
+  CHECK(countResults(results, [](const UpdateResult& r) { return r.reordered; }) > 0);
+  // Rolled back: the solver ends where one that saw only the valid steps does.
+  auto reference = std::make_unique<SmallSolver>(options);
+  for (std::size_t s = 0; s < in.size(); ++s)
+    REQUIRE(update(*reference, in.poses[s], in.factors[s]) == Status::Ok);
+  CHECK(sameEstimate(*solver, *reference));
+}
+
+TEST_CASE("no heap allocation in a run with reordered updates (reorder_affected_top)") {
+  const SyntheticWorld world = syntheticWorld(SmallSolver::max_poses, 21);
+  const RunInputs in = prepareRun(world.dataset, groundTruth(world));
+  SolverOptions options = smallWorldOptions();
+  options.reorder_affected_top = true;
+  options.reorder_top_min_columns = 4;
+  auto solver = std::make_unique<SmallSolver>(options);
+  std::vector<Status> statuses(in.size(), Status::Ok);
+  std::vector<UpdateResult> results(in.size());
+  const HeapCalls calls = countHeapCalls([&] { feedAll(*solver, in, statuses, results); });
+  checkNoHeapCalls(calls, "reorder_affected_top run");
+
+  CHECK(countNotOk(statuses) == 0);
+  CHECK(solver->poses() == static_cast<Index>(in.size()));
+  const int top_reordered =
+      countResults(results, [](const UpdateResult& r) { return r.top_reordered; });
+  MESSAGE(top_reordered << " of " << in.size() << " updates reordered their affected top");
+  CHECK(top_reordered > 0);
+}
+
+TEST_CASE("no heap allocation in a run whose pool needs compactions") {
+  const SyntheticWorld world = syntheticWorld(300, 60);
+  const RunInputs in = prepareRun(world.dataset, groundTruth(world));
+  auto solver = std::make_unique<TightSolver>(smallWorldOptions());
+  std::vector<Status> statuses(in.size(), Status::Ok);
+  std::vector<UpdateResult> results(in.size());
+  const HeapCalls calls = countHeapCalls([&] { feedAll(*solver, in, statuses, results); });
+  checkNoHeapCalls(calls, "compacting run");
+
+  CHECK(countNotOk(statuses) == 0);
+  CHECK(solver->poses() == static_cast<Index>(in.size()));
+  const int compactions = countResults(results, [](const UpdateResult& r) { return r.compacted; });
+  MESSAGE(compactions << " of " << in.size() << " updates compacted the pool of "
+                      << TightSolver::max_factor_blocks << " blocks");
+  CHECK(compactions > 0);
+}
+
+TEST_CASE("no heap allocation in solve(), optimize() and the estimate's reads") {
+  // No solve after update: the steps take partial solves and full ones on demand, then one full
+  // solve, optimize() from the dead-reckoning start, and every read of the estimate.
+  const SyntheticWorld world = syntheticWorld(300, 33);
+  const RunInputs in = prepareRun(world.dataset, estimateFromVertices(world.dataset));
+  SolverOptions options = smallWorldOptions();
+  options.solve_after_update = false;
+  auto solver = std::make_unique<SmallSolver>(options);
+  std::vector<Status> statuses(in.size(), Status::Ok);
+  std::vector<UpdateResult> solves(in.size());  // step s's solve, if it took one
+  std::vector<Index> poses_at_solve(in.size(), 0);
+  const std::size_t n = in.size();
+  std::vector<SE2> estimates(n);
+  std::vector<Status> estimate_statuses(n, Status::Ok);
+  std::vector<SE2> estimates_at(n);
+  Status unknown = Status::Ok;
+  Status no_output = Status::Ok;
+  UpdateResult full;
+  UpdateResult optimized;
+  Status optimize_status = Status::Ok;
+  double chi2_before = 0.0;
+  double chi2_after = 0.0;
+  double delta_sum = 0.0;
+  const HeapCalls calls = countHeapCalls([&] {
+    for (std::size_t s = 0; s < n; ++s) {
+      statuses[s] = update(*solver, in.poses[s], in.factors[s]);
+      poses_at_solve[s] = solver->poses();
+      if (s % 10 == 9)
+        solver->solve(true, &solves[s]);
+      else if (s % 3 == 2)
+        solver->solve(false, &solves[s]);
+    }
+    solver->solve(true, &full);
+    chi2_before = solver->chi2();
+    optimize_status = solver->optimize(10, 1e-9, &optimized);
+    chi2_after = solver->chi2();
+    for (std::size_t i = 0; i < n; ++i) {
+      estimate_statuses[i] = solver->estimate(in.poses[i].id, &estimates[i]);
+      estimates_at[i] = solver->estimateAt(static_cast<Index>(i));
+      delta_sum += solver->deltaAt(static_cast<Index>(i)).cwiseAbs().sum();
+    }
+    SE2 scratch;
+    unknown = solver->estimate(static_cast<VariableId>(n) + 100, &scratch);
+    no_output = solver->estimate(0, nullptr);
+  });
+  checkNoHeapCalls(calls, "solve, optimize and estimate reads");
+
+  CHECK(countNotOk(statuses) == 0);
+  int full_solves = 0;
+  int partial_solves = 0;
+  for (std::size_t s = 0; s < n; ++s) {
+    if (s % 10 == 9) {
+      CAPTURE(s);
+      CHECK(solves[s].variables_solved == poses_at_solve[s]);  // a full solve visits every pose
+      ++full_solves;
+    } else if (s % 3 == 2) {
+      partial_solves += solves[s].variables_solved > 0 ? 1 : 0;
+    }
+  }
+  CHECK(full_solves > 0);
+  CHECK(partial_solves > 0);
+  CHECK(full.variables_solved == solver->poses());
+  CHECK(optimize_status == Status::Ok);
+  CHECK(optimized.status == Status::Ok);
+  CHECK(optimized.iterations > 0);
+  MESSAGE("optimize(): " << optimized.iterations << " iterations, chi2 " << chi2_before << " -> "
+                         << chi2_after);
+  CHECK(std::isfinite(chi2_after));
+  CHECK(chi2_after <= chi2_before);
+  CHECK(std::isfinite(delta_sum));
+  CHECK(unknown == Status::UnknownVariable);
+  CHECK(no_output == Status::InvalidArgument);
+  for (std::size_t i = 0; i < n; ++i) {
+    CAPTURE(i);
+    CHECK(estimate_statuses[i] == Status::Ok);
+    CHECK(solver->idAt(static_cast<Index>(i)) == in.poses[i].id);
+    CHECK(estimates[i].x() == estimates_at[i].x());
+    CHECK(estimates[i].y() == estimates_at[i].y());
+    CHECK(estimates[i].theta() == estimates_at[i].theta());
+  }
+}
+
+#else  // !defined(__GLIBC__)
+
+TEST_CASE("no heap allocation after construction (skipped: needs glibc)") {
+  MESSAGE(
+      "SKIP: the heap-call counting interposes glibc's allocator (__libc_malloc and the rest); "
+      "this C library is not glibc, so no span is counted here");
+}
+
+#endif  // defined(__GLIBC__)
