@@ -11,10 +11,13 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <functional>
 #include <iostream>
+#include <iterator>
 #include <limits>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "host_sim/batch_solver.h"
@@ -223,6 +226,102 @@ int generate(int argc, char** argv) {
   return 0;
 }
 
+// The options of `run` after DATASET into args: 0, or the exit status of a usage error (which names
+// the option). Values are parsed strictly: the whole token, reals finite and >= 0.
+int parseRunArgs(int argc, char** argv, RunArgs& args) {
+  lslam::SolverOptions& so = args.solver;
+  struct Flag {
+    const char* name;
+    bool* target;
+    bool value;
+  };
+  const Flag flags[] = {{"--json", &args.json, true},
+                        {"--reorder-top", &so.reorder_affected_top, true},
+                        {"--no-row-updates", &so.row_updates, false},
+                        {"--no-linearization-cache", &so.cache_linearizations, false},
+                        {"--order-in-one-update", &so.prepare_ordering_ahead, false}};
+  // Each option with a value: what to do with it (0, or the status of a bad value).
+  using Apply = std::function<int(const std::string& option, const char* value)>;
+  std::vector<std::pair<std::string, Apply>> value_options = {
+      {"--order",
+       [&](const std::string& a, const char* v) {
+         const std::string order = v;
+         if (order != "online" && order != "file") return badValue(a, v, "online or file");
+         args.order = order == "online" ? StepOrder::Online : StepOrder::File;
+         return 0;
+       }},
+      {"--solve-every",
+       [&](const std::string& a, const char* v) {
+         const auto n = parseIntegerArg(v, 1, std::numeric_limits<int>::max());
+         if (!n) return badValue(a, v, "an integer >= 1");
+         args.solve_every = static_cast<int>(*n);
+         return 0;
+       }},
+      {"--csv", [&](const std::string&, const char* v) { return args.csv = v, 0; }},
+      {"--out", [&](const std::string&, const char* v) { return args.out = v, 0; }},
+      {"--report", [&](const std::string&, const char* v) { return args.report = v, 0; }},
+      {"--prepare-min-products",
+       [&](const std::string& a, const char* v) {
+         const auto n = parseIntegerArg(v, 0, std::numeric_limits<std::int64_t>::max());
+         if (!n) return badValue(a, v, "an integer >= 0");
+         so.prepare_ordering_min_products = *n;
+         return 0;
+       }},
+  };
+  const std::pair<const char*, double*> reals[] = {
+      {"--relinearize-threshold", &so.relinearize_threshold},
+      {"--relinearize-urgent", &so.relinearize_urgent_threshold},
+      {"--relinearize-partial", &so.relinearize_partial_threshold},
+      {"--backsub-tolerance", &so.backsubstitution_tolerance},
+      {"--reorder-growth", &so.reorder_growth},
+      {"--reorder-excess", &so.reorder_excess_ratio},
+      {"--reorder-relinearized", &so.reorder_relinearized_share},
+      {"--reorder-refresh", &so.reorder_refresh_growth},
+      {"--relinearize-full-cost", &so.relinearize_full_cost_ratio},
+  };
+  for (const auto& [name, value] : reals) {
+    value_options.emplace_back(name, [value = value](const std::string& a, const char* v) {
+      const auto x = parseRealArg(v, 0.0, std::numeric_limits<double>::max());
+      if (!x) return badValue(a, v, "a finite number >= 0");
+      *value = *x;
+      return 0;
+    });
+  }
+  const std::pair<const char*, lslam::Index*> indices[] = {
+      {"--relinearize-skip", &so.relinearize_skip},
+      {"--reorder-path", &so.reorder_path_columns},
+      {"--reorder-burst", &so.reorder_burst_loop_closures},
+  };
+  for (const auto& [name, value] : indices) {
+    value_options.emplace_back(name, [value = value](const std::string& a, const char* v) {
+      const auto n = parseIntegerArg(v, 0, std::numeric_limits<lslam::Index>::max());
+      if (!n) return badValue(a, v, "an integer in 0..2147483647");
+      *value = static_cast<lslam::Index>(*n);
+      return 0;
+    });
+  }
+
+  for (int i = 3; i < argc; ++i) {
+    const std::string a = argv[i];
+    const auto flag = std::find_if(std::begin(flags), std::end(flags),
+                                   [&](const Flag& f) { return a == f.name; });
+    if (flag != std::end(flags)) {
+      *flag->target = flag->value;
+      continue;
+    }
+    const auto option = std::find_if(value_options.begin(), value_options.end(),
+                                     [&](const auto& o) { return o.first == a; });
+    if (option == value_options.end()) {
+      std::fprintf(stderr, "lslam-sim: unknown option %s\n", jsonString(a).c_str());
+      return usage();
+    }
+    if (i + 1 >= argc) return missingValue(a);
+    const int status = option->second(a, argv[++i]);
+    if (status != 0) return status;
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -232,105 +331,8 @@ int main(int argc, char** argv) {
     if (std::strcmp(argv[1], "run") != 0 || argc < 3) return usage();
     RunArgs args;
     args.dataset = argv[2];
-    // Options with a value, parsed strictly (the whole token; reals finite): a bad value is a
-    // usage error naming the option.
-    constexpr std::int64_t kMaxIndex = std::numeric_limits<lslam::Index>::max();
-    constexpr double kMaxReal = std::numeric_limits<double>::max();
-    lslam::SolverOptions& so = args.solver;
-    struct RealOption {
-      const char* name;
-      double* value;
-    };
-    const RealOption real_options[] = {
-        {"--relinearize-threshold", &so.relinearize_threshold},
-        {"--relinearize-urgent", &so.relinearize_urgent_threshold},
-        {"--relinearize-partial", &so.relinearize_partial_threshold},
-        {"--backsub-tolerance", &so.backsubstitution_tolerance},
-        {"--reorder-growth", &so.reorder_growth},
-        {"--reorder-excess", &so.reorder_excess_ratio},
-        {"--reorder-relinearized", &so.reorder_relinearized_share},
-        {"--reorder-refresh", &so.reorder_refresh_growth},
-        {"--relinearize-full-cost", &so.relinearize_full_cost_ratio},
-    };
-    struct IndexOption {
-      const char* name;
-      lslam::Index* value;
-    };
-    const IndexOption index_options[] = {
-        {"--relinearize-skip", &so.relinearize_skip},
-        {"--reorder-path", &so.reorder_path_columns},
-        {"--reorder-burst", &so.reorder_burst_loop_closures},
-    };
-    const auto find_real = [&](const std::string& name) -> double* {
-      for (const RealOption& o : real_options) {
-        if (name == o.name) return o.value;
-      }
-      return nullptr;
-    };
-    const auto find_index = [&](const std::string& name) -> lslam::Index* {
-      for (const IndexOption& o : index_options) {
-        if (name == o.name) return o.value;
-      }
-      return nullptr;
-    };
-    const auto takes_value = [&](const std::string& name) {
-      return name == "--order" || name == "--solve-every" || name == "--csv" || name == "--out" ||
-             name == "--report" || name == "--prepare-min-products" || find_real(name) != nullptr ||
-             find_index(name) != nullptr;
-    };
-    for (int i = 3; i < argc; ++i) {
-      const std::string a = argv[i];
-      if (a == "--json") {
-        args.json = true;
-      } else if (a == "--reorder-top") {
-        so.reorder_affected_top = true;
-      } else if (a == "--no-row-updates") {
-        so.row_updates = false;
-      } else if (a == "--no-linearization-cache") {
-        so.cache_linearizations = false;
-      } else if (a == "--order-in-one-update") {
-        so.prepare_ordering_ahead = false;
-      } else if (!takes_value(a)) {
-        std::fprintf(stderr, "lslam-sim: unknown option %s\n", jsonString(a).c_str());
-        return usage();
-      } else if (i + 1 >= argc) {
-        return missingValue(a);
-      } else {
-        const char* v = argv[++i];
-        if (a == "--order") {
-          const std::string order = v;
-          if (order == "online") {
-            args.order = StepOrder::Online;
-          } else if (order == "file") {
-            args.order = StepOrder::File;
-          } else {
-            return badValue(a, v, "online or file");
-          }
-        } else if (a == "--solve-every") {
-          const auto n = parseIntegerArg(v, 1, std::numeric_limits<int>::max());
-          if (!n) return badValue(a, v, "an integer >= 1");
-          args.solve_every = static_cast<int>(*n);
-        } else if (a == "--csv") {
-          args.csv = v;
-        } else if (a == "--out") {
-          args.out = v;
-        } else if (a == "--report") {
-          args.report = v;
-        } else if (a == "--prepare-min-products") {
-          const auto n = parseIntegerArg(v, 0, std::numeric_limits<std::int64_t>::max());
-          if (!n) return badValue(a, v, "an integer >= 0");
-          so.prepare_ordering_min_products = *n;
-        } else if (double* real = find_real(a)) {
-          const auto x = parseRealArg(v, 0.0, kMaxReal);
-          if (!x) return badValue(a, v, "a finite number >= 0");
-          *real = *x;
-        } else if (lslam::Index* index = find_index(a)) {
-          const auto n = parseIntegerArg(v, 0, kMaxIndex);
-          if (!n) return badValue(a, v, "an integer in 0..2147483647");
-          *index = static_cast<lslam::Index>(*n);
-        }
-      }
-    }
+    const int status = parseRunArgs(argc, argv, args);
+    if (status != 0) return status;
     return run(args);
   } catch (const DatasetError& e) {
     std::fprintf(stderr, "lslam-sim: %s\n", e.what());
