@@ -534,17 +534,27 @@ SolverOptions smallWorldOptions() {
   return options;
 }
 
-// Feeds every step, each step's status and result into the caller's arrays (sized to the run).
-void feedAll(PoseGraphSolver2D& solver, const RunInputs& in, std::vector<Status>& statuses,
-             std::vector<UpdateResult>& results) {
-  for (std::size_t s = 0; s < in.size(); ++s)
-    statuses[s] = update(solver, in.poses[s], in.factors[s], &results[s]);
-}
-
 int countNotOk(const std::vector<Status>& statuses) {
   int n = 0;
   for (const Status s : statuses) n += s == Status::Ok ? 0 : 1;
   return n;
+}
+
+// Feeds every step of a valid run while counting (the status and result arrays are sized before),
+// checks that nothing touched the heap and every step was taken, and returns the steps' results.
+std::vector<UpdateResult> feedAllCounted(PoseGraphSolver2D& solver, const RunInputs& in,
+                                         const char* span) {
+  std::vector<Status> statuses(in.size(), Status::Ok);
+  std::vector<UpdateResult> results(in.size());
+  const HeapCalls calls = countHeapCalls([&] {
+    for (std::size_t s = 0; s < in.size(); ++s) {
+      statuses[s] = update(solver, in.poses[s], in.factors[s], &results[s]);
+    }
+  });
+  checkNoHeapCalls(calls, span);
+  CHECK(countNotOk(statuses) == 0);
+  CHECK(solver.poses() == static_cast<Index>(in.size()));
+  return results;
 }
 
 template <class Flag>
@@ -845,13 +855,7 @@ TEST_CASE("no heap allocation in a run with reordered updates (reorder_affected_
   options.reorder_affected_top = true;
   options.reorder_top_min_columns = 4;
   auto solver = std::make_unique<SmallSolver>(options);
-  std::vector<Status> statuses(in.size(), Status::Ok);
-  std::vector<UpdateResult> results(in.size());
-  const HeapCalls calls = countHeapCalls([&] { feedAll(*solver, in, statuses, results); });
-  checkNoHeapCalls(calls, "reorder_affected_top run");
-
-  CHECK(countNotOk(statuses) == 0);
-  CHECK(solver->poses() == static_cast<Index>(in.size()));
+  const std::vector<UpdateResult> results = feedAllCounted(*solver, in, "reorder_affected_top run");
   const int top_reordered =
       countResults(results, [](const UpdateResult& r) { return r.top_reordered; });
   MESSAGE(top_reordered << " of " << in.size() << " updates reordered their affected top");
@@ -862,13 +866,7 @@ TEST_CASE("no heap allocation in a run whose pool needs compactions") {
   const SyntheticWorld world = syntheticWorld(300, 60);
   const RunInputs in = prepareRun(world.dataset, groundTruth(world));
   auto solver = std::make_unique<TightSolver>(smallWorldOptions());
-  std::vector<Status> statuses(in.size(), Status::Ok);
-  std::vector<UpdateResult> results(in.size());
-  const HeapCalls calls = countHeapCalls([&] { feedAll(*solver, in, statuses, results); });
-  checkNoHeapCalls(calls, "compacting run");
-
-  CHECK(countNotOk(statuses) == 0);
-  CHECK(solver->poses() == static_cast<Index>(in.size()));
+  const std::vector<UpdateResult> results = feedAllCounted(*solver, in, "compacting run");
   const int compactions = countResults(results, [](const UpdateResult& r) { return r.compacted; });
   MESSAGE(compactions << " of " << in.size() << " updates compacted the pool of "
                       << TightSolver::max_factor_blocks << " blocks");
