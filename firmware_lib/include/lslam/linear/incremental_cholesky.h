@@ -387,7 +387,7 @@ class StaticCholeskyStorage {
 
 // Block sizes 2, 3 and 6 are compiled once each: every member defined out of the class is
 // instantiated, member by member, in the source file that defines it
-// (src/incremental_cholesky*.cpp); the members defined in the class body are inline and
+// (src/linear/incremental_cholesky*.cpp); the members defined in the class body are inline and
 // instantiated where they are used. No `extern template class` here: with it, GCC at -O0 expects
 // those inline members from an explicit instantiation of the whole class, which the sources no
 // longer have (see incremental_cholesky.cpp).
