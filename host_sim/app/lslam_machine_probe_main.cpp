@@ -1,9 +1,8 @@
 // lslam-machine-probe: how fast this machine is right now, printed next to benchmark figures.
 //
-// The machines these benchmarks run on are shared: the same binary on the same data has taken
-// from 1x to 2x its quiet time from one hour to the next (README "Measured"). This probe measures
-// the two things the solver's time follows, so that a table can be read against the state of the
-// machine it was taken in:
+// The machines these benchmarks run on are shared: the same binary on the same data can take up to
+// twice its quiet time from one hour to the next. This probe measures the two things the solver's
+// time follows, so that a table can be read against the state of the machine it was taken in:
 //   - the CPU: a fixed chain of 2.5e8 dependent multiply-adds in a register (one multiply's and
 //     one add's latency each, whatever the memory does);
 //   - the memory: a random pointer chase over 1 MB and 16 MB (the latency of a cache the factor of

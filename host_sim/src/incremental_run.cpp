@@ -52,8 +52,7 @@ StepKind classify(const Dataset2D& d, const Step& step, std::int64_t previous_po
 // On the robot the solver lives in .bss, which the startup code zeroes (and so pages in) before
 // main(). The host does the same: the solver is built in memory zeroed beforehand, so the timed
 // steps do not pay the kernel's first-touch page faults as the block pool's tail advances into
-// the ~170 MB object (page-fault handling was ~10 % of a perf profile of a whole
-// manhattanOlson3500 process, batch solve included).
+// the ~170 MB object.
 struct ZeroedSolverDeleter {
   void operator()(HostSolver2D* solver) const {
     solver->~HostSolver2D();

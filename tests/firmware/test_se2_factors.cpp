@@ -273,7 +273,7 @@ int referencePositiveDefinite(const Mat3& m) {
 TEST_CASE("checkInformation agrees with a scale-free reference over 1e-300 .. 1e300") {
   // Diagonals spread over 600 decades, correlations mostly in (-1.5, 1.5), one in ten up to 1e300
   // and one in ten exactly 0: the matrices that a direct elimination over- or underflows on are
-  // the point (inf * 0 in an elimination gave a NaN pivot, which once passed as definite).
+  // the point (inf * 0 in an elimination gives a NaN pivot, which must not pass as definite).
   std::mt19937 rng(2026);
   std::uniform_real_distribution<double> exponent(-300.0, 300.0);
   std::uniform_real_distribution<double> correlation(-1.5, 1.5);

@@ -161,7 +161,7 @@ void printValue(const char* name, double value) {
   Line().text(name).real(value, 15).print();
 }
 
-// The checks, tolerances and why: see README "Firmware target".
+// The checks, tolerances and why: see firmware_lib/target/README.md, Tests.
 void checkResult(lslam::target::Checks& checks) {
   const double chi2 = chi2G2o();
   const double host_relative =

@@ -38,8 +38,8 @@ LSLAM_TARGET_AVX_FMA inline __m256d addProductColumn(__m256d b0, __m256d b1, __m
 
 // The reflections' coefficients where a row block's loop reads them: per reflection j the u
 // entries of factor 0 (c = 0, 1, 2), of factor 1, .., then beta(j). A local copy, because the
-// W and L stores may alias u for all the compiler knows: read through u, GCC kept each entry's
-// address in a stack slot and reloaded it per block (~1 instruction per multiply-add).
+// W and L stores may alias u for all the compiler knows: read through u, GCC reloads each entry
+// per block.
 template <int M>
 struct ReflectionCoefficients {
   double of[3][3 * M + 1];
@@ -161,7 +161,7 @@ LSLAM_TARGET_AVX_FMA inline __m256d sumLanesOfThree(__m256d a, __m256d b, __m256
 LSLAM_TARGET_AVX_FMA bool solveColumnAvx(const Vec3& d, const Mat3* blocks, const Index* rows,
                                          Index size, double* solution, Index k, double tolerance,
                                          Vec3& delta) {
-  // Three named accumulators, not an array: GCC kept an array on the stack around the loop.
+  // Three named accumulators, not an array: GCC keeps an array on the stack around the loop.
   __m256d acc0 = _mm256_setzero_pd();
   __m256d acc1 = _mm256_setzero_pd();
   __m256d acc2 = _mm256_setzero_pd();

@@ -149,8 +149,7 @@ Status IncrementalCholesky<D>::factorize(const InformationSource<D>& source,
   LSLAM_ASSERT(in_update_);
   // Symbolic: the structure of every affected column, in ascending order. A column's parent is
   // queued as soon as the column's structure is known, which grows the set to the root. A full
-  // refactorization takes every column in turn instead: a heap that only ever returns 0, 1, 2, ...
-  // cost a sift-down per column (manhattanOlson3500: 31 M of the whole run's 2.93 G instructions).
+  // refactorization takes every column in turn instead, without a heap's sift-down per column.
   if (full_) {
     for (Index k = 0; k < staged_columns_; ++k) {
       a_.affected[affected_count_++] = k;
@@ -322,9 +321,9 @@ void IncrementalCholesky<D>::startColumn(Index k, const InformationSource<D>& so
 // A full factorization assembles every column of Lambda, ascending, each factor linearized once
 // (InformationSource::assembleColumn): the diagonal blocks and eta of the later columns
 // accumulate in staged_diagonal and staged_d (compact arrays; staged_diagonal is free until the
-// column is factorized), and each column's own blocks are zeroed just before it is assembled.
-// Zeroing the whole staged factor first and adding to diagonal blocks scattered over it cost a
-// cache miss per factor (city10000: 6.3 ms of a 25 ms reordering).
+// column is factorized), and each column's own blocks are zeroed just before it is assembled:
+// zeroing the whole staged factor first and adding to diagonal blocks scattered over it would
+// cost a cache miss per factor.
 template <int D>
 void IncrementalCholesky<D>::assembleAllColumns(const InformationSource<D>& source,
                                                 const Index* variable_at,
@@ -383,10 +382,9 @@ void IncrementalCholesky<D>::scatter(const Index* rows, const Block* blocks, Ind
     const Block l_sk_t = sign * blocks[a].transpose();
     a_.staged_d[s].noalias() += l_sk_t.transpose() * d;
     // rows[a..] is a subset of the target's rows, both ascending: merge. rows[a] is s itself, the
-    // target's diagonal block (target_rows[0]). The AVX kernel takes it in the same loop (through
-    // Eigen's product on its own it cost ~30 instructions per target); the portable loop takes it
-    // first, as addBlockProduct, so that every host computes the same bits (through the merge
-    // from it, the Cortex-M7's stream took 1.0 % more instructions, its relinearizations 1.7 %).
+    // target's diagonal block (target_rows[0]). The AVX kernel takes it in the same loop; the
+    // portable loop takes it first, as addBlockProduct: the same bits, and on the Cortex-M7 fewer
+    // instructions than inside the merge.
     if constexpr (D == 3) {
       if (host_kernels) {
         detail::addBlockProductsAvx(blocks, rows, a, size, l_sk_t, target_rows, target);
@@ -441,7 +439,7 @@ void IncrementalCholesky<D>::commit() {
   n_ = staged_columns_;
   in_update_ = false;
   // The layout waits for the next update (or compaction): a refactorization is the dearest
-  // update, and copying the whole factor (city10000: ~1.1 ms) fits better in the next, cheap one.
+  // update, and copying the whole factor fits better in the next, cheap one.
   if (full_) layout_pending_ = true;
 }
 
@@ -458,12 +456,11 @@ void IncrementalCholesky<D>::installStaged(Index k) {
 
 // Copy-on-write leaves every recomputed column at the pool tail. Left there, the tail would march
 // through the whole pool, one copy of the top per loop closure, with each column wherever its
-// latest copy landed: the factor spread over far more memory than it occupies (city10000: a
-// 9.5 MB factor over a 151 MB pool), so every solve streams it from main memory. Instead, a
-// column whose structure did not grow is copied back over its committed blocks (the structures
-// are then equal: they only grow), and the columns that grew (and the added ones) are packed at
-// the start of the staging area. The tail is reused by the next update, the factor stays compact,
-// and only grown columns leave garbage behind.
+// latest copy landed: the factor spread over far more memory than it occupies, so every solve
+// streams it from main memory. Instead, a column whose structure did not grow is copied back over
+// its committed blocks (the structures are then equal: they only grow), and the columns that grew
+// (and the added ones) are packed at the start of the staging area. The tail is reused by the next
+// update, the factor stays compact, and only grown columns leave garbage behind.
 template <int D>
 void IncrementalCholesky<D>::settleStagedColumns() {
   Index* grown = a_.scratch;

@@ -1,20 +1,19 @@
 // The pool layout for the back-substitution (IncrementalCholesky::layoutForSolve).
 //
-// Rewrites the live columns to the front of the pool in the order backSubstitute visits them
-// (root first, depth first, children in descending order), so that a solve reads the pool
-// forwards instead of jumping from column to column: a full solve of city10000's factor at 9,000
-// poses takes ~220 us instead of ~315 us. Later updates keep the layout for every column whose
+// Rewrites the live columns to the front of the pool in the order backSubstitute visits them (root
+// first, depth first, children in descending order), so that a solve reads the pool forwards
+// instead of jumping from column to column. Later updates keep the layout for every column whose
 // structure does not grow (see settleStagedColumns); grown and added columns go to the tail until
-// the next full refactorization lays the factor out again. The layout of a full refactorization
-// is done by the next beginUpdate() or compact() (layout_pending_): the refactorization is the
-// dearest update, and a whole copy of the factor fits better in the next, cheap one.
+// the next full refactorization lays the factor out again. The layout of a full refactorization is
+// done by the next beginUpdate() or compact() (layout_pending_): the refactorization is the dearest
+// update, and a whole copy of the factor fits better in the next, cheap one.
 //
 // The columns are written straight to the front when every one lies beyond the live size (after
 // a full refactorization, which leaves the fresh columns above the old ones); otherwise through
 // the free tail, then moved down. Without room for either, the layout stays as it is.
 //
-// In a file of its own: added to incremental_cholesky.cpp, it changed the compiler's inlining
-// there and cost the Cortex-M ~4 % more instructions per odometry step.
+// In a file of its own: in incremental_cholesky.cpp it would change the compiler's inlining of the
+// column functions there, and with it the Cortex-M's cost per odometry step.
 #include <algorithm>
 #include <cstring>
 
@@ -62,8 +61,8 @@ void IncrementalCholesky<D>::layoutForSolve() {
 // The solve after a full refactorization, before its layout: every column is solved (the
 // refactorization changed them all; a second solve before the next update repeats it), and
 // descending column order (a parent always comes after its children) reads the columns where
-// the factorization staged them, ascending, backwards and contiguously; the depth-first walk
-// jumps (city10000 at 9,981 poses: 1.44 ms against 0.80 ms laid out).
+// the factorization staged them, ascending, backwards and contiguously, where the depth-first walk
+// would jump.
 template <int D>
 Index IncrementalCholesky<D>::solveInColumnOrder(Vector* delta, const Index* variable_at,
                                                  Index* visited) {

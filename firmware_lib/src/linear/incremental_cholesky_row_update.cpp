@@ -6,9 +6,9 @@
 // from its old value, sending every updated-minus-old outer product L(r,k) L(s,k)^T to the
 // columns of its structure: s^2 block products for a column of structure s. Here column k and
 // the factor's rows are rotated together, [L(:,k) W(:,k)] Q = [L'(:,k) W'(:,k)], and only W'
-// travels on to the parent: about 3 s block products (Q kept as D reflections). In a graph whose
-// top is a dense clique of ~100 columns (city10000 after COLAMD) that is the difference between
-// ~10^6 and ~10^4 products per loop closure. Orthogonal transformations also add no cancellation.
+// travels on to the parent: about 3 s block products (Q kept as D reflections). On a dense top of
+// ~100 columns that is ~10^4 products per loop closure instead of ~10^6. Orthogonal
+// transformations also add no cancellation.
 //
 // The right-hand side rides along as one more row: L d = eta is the last row of the Cholesky
 // factor of [Lambda eta; eta^T .], so [d(k)^T b^T] Q = [d'(k)^T b'^T] updates d on the same path.
@@ -150,8 +150,8 @@ Status IncrementalCholesky<D>::addFactorRows(const FactorRows& factor) {
 // path lies above it, so never reaches it: each column is rotated once). From the column where
 // they meet, their rows are the same and are rotated together: each block of the shared path is
 // read, reflected and staged once, at about 1.6x the work of one factor's pass instead of 2x
-// (plus a second column setup). On city10000 most loop-closure steps add two closures whose paths
-// meet low in the dense top.
+// (plus a second column setup). Loop-closure steps often add two closures whose paths meet low in
+// the dense top.
 template <int D>
 Status IncrementalCholesky<D>::addFactorRows(const FactorRows& first, const FactorRows& second) {
   LSLAM_ASSERT(in_update_ && !full_ && first.count > 0 && second.count > 0);
@@ -291,9 +291,9 @@ Status IncrementalCholesky<D>::rowUpdateColumn(Index k, const Index* pattern, In
     reflectRows<D, M>(h, blocks, nullptr, size, blocks, rows, size, w);
   } else {
     // The merge decides the structure and where each block comes from; the reflections then read
-    // the old blocks and write the staged ones in one pass (a copy to the staging area first, then
-    // reflections there, took ~9 % of city10000's run in the copy alone). The merge's branching
-    // stays in a loop of its own: inside it, the reflections ran ~20 % slower.
+    // the old blocks and write the staged ones in one pass, with no copy to the staging area
+    // first. The merge's branching stays in a loop of its own: inside, it would slow the
+    // reflections.
     Index* source = a_.row_list;
     Index kept = 0;
     size =
@@ -366,8 +366,8 @@ Index IncrementalCholesky<D>::mergeRows(Index k, const Index* old_rows, Index ol
                                         Index* source, Index* kept) {
   rows[0] = k;
   // The common case on a dense top: the pattern repeats the old rows, fill (if any) after them.
-  // That run is only compared and copied, and its sources are implied (in the merge below a row
-  // took ~16 instructions on city10000, with its two stores).
+  // That run is only compared and copied, and its sources are implied: cheaper per row than the
+  // merge below, with its two stores.
   Index j = 0;
   const Index common = old_size - 1 < pattern_size ? old_size - 1 : pattern_size;
   while (j < common && old_rows[j + 1] == pattern[j]) ++j;
@@ -376,8 +376,7 @@ Index IncrementalCholesky<D>::mergeRows(Index k, const Index* old_rows, Index ol
   Index i = j + 1;
   *kept = size;
   // One step per row of the result, the common case first: on a dense top the two lists are
-  // nearly the same, so most steps take a row both hold (a predictable branch; a loop over the
-  // pattern with an inner loop over old rows took ~37 instructions per row on city10000).
+  // nearly the same, so most steps take a row both hold (a predictable branch).
   while (i < old_size && j < pattern_size) {
     const Index old_row = old_rows[i];
     const Index pattern_row = pattern[j];

@@ -2,23 +2,21 @@
 //
 // Right-looking, column by column, a column's update of each later column loads and stores every
 // target block once per source column. Across the dense top of a large factor the targets no
-// longer fit in cache, so that traffic, not the arithmetic, set the pace (city10000: the hottest
-// instruction of a full factorization's profile was a target block's load). Consecutive columns
+// longer fit in cache, so that traffic, not the arithmetic, sets the pace. Consecutive columns
 // whose structures nest, struct(k) = {k + 1} u struct(k + 1) (a chain of the elimination tree with
 // no fill branching in: a supernode), share every row outside the chain. Their updates of those
 // rows are applied together: each target block is loaded once, receives the chain's products in
 // ascending column order, and is stored once. That order is the one the column-by-column loop
 // applies them in, so the factor is bit for bit the same (a width-1 supernode is the plain loop).
-// Measured on city10000 at 9,000 poses: a full factorization 13.2 -> 11.6 ms (A/B minima). The
-// targets are still loaded from beyond the cache once per chain; keeping a panel of them in cache
-// across chains (a 2-D blocked, supernodal factorization) is what would remove the rest.
+// The targets are still loaded from beyond the cache once per chain; keeping a panel of them in
+// cache across chains (a 2-D blocked, supernodal factorization) would remove the rest.
 #include "lslam/linear/block_kernels.h"
 #include "lslam/linear/incremental_cholesky.h"
 
 namespace lslam {
 namespace {
 
-// Longer chains are split: 8 and 16 measured the same, 64 slower (more source streams at once).
+// Longer chains are split: fewer loads of each target vs. more source columns streamed at once.
 constexpr Index kMaxSupernodeWidth = 8;
 
 }  // namespace
@@ -59,9 +57,8 @@ Index IncrementalCholesky<D>::supernodeEnd(Index i) const {
 }
 
 // Column m's update of the chain's later columns m + 1 .. last (its rows 1 .. last - m), as
-// scatter() does it for every row (scatter() itself stays as it is: a variant of it cost the
-// Cortex-M's odometry step 40 instructions). A later column t = m + a holds exactly m's rows
-// from a on.
+// scatter() does it for every row (a function of its own, so that scatter(), also the Cortex-M's
+// path, stays lean). A later column t = m + a holds exactly m's rows from a on.
 template <int D>
 void IncrementalCholesky<D>::scatterWithinSupernode(Index m, Index last) {
   if constexpr (D == 3) {

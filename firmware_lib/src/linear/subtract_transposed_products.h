@@ -10,14 +10,12 @@ namespace detail {
 
 // x -= sum_{i >= 1} blocks[i]^T y(rows[i]), y(r) the solution of row r (solution + S r, S =
 // kSolutionStride<D>): the back-substitution's inner loop. The solution is kept by column position,
-// so a row reads its y with one index (through the variables' order it took two dependent loads).
-// On a SIMD host the products are summed elementwise and reduced to a vector once per column; a
-// transposed block times a vector per block reduces across lanes every time (~10 % of a full
-// solve on city10000). For D = 3 on x86-64 that is the std::fma form, whose bits the AVX2/FMA
-// kernel of the whole column step gives (solveColumnAvx: a block column per register, ~3x fewer
-// instructions than Eigen's SSE2 form, which leaves a lane of every column over). On a scalar FPU
-// (the Cortex-M) the direct form is the fewer instructions (the elementwise one costs ~7 % more per
-// odometry step there), so it stays.
+// so a row reads its y with one index (through the variables' order it would take two dependent
+// loads). On a SIMD host the products are summed elementwise and reduced to a vector once per
+// column, where a transposed block times a vector would reduce across lanes for every block.
+// For D = 3 on x86-64 that is the std::fma form, whose bits the AVX2/FMA kernel of the whole column
+// step gives (solveColumnAvx: a block column per register, where Eigen's SSE2 form leaves a lane
+// of every column over). On a scalar FPU (the Cortex-M) the direct form takes fewer instructions.
 template <int D>
 inline void subtractTransposedProducts(Eigen::Matrix<double, D, 1>& x,
                                        const Eigen::Matrix<double, D, D>* blocks, const Index* rows,

@@ -47,13 +47,10 @@ struct BatchOptions {
   // Seed's rule: after an accepted LM step, stop (converged) if
   //   current_error - next_error < error_decrease_tolerance,
   // with error = norm(b) = sqrt(chi2) (the norm of the whitened residual vector, NOT chi2), an
-  // absolute threshold. The seed uses 0.005. Measured on the five 2D g2o files of
-  // /work/shared/datasets, 0.005 also reaches the MANIFEST reference chi2 (to >= 5 digits), but it
-  // stops one or two steps early (intel: 546.46138 instead of 546.46111, i.e. sqrt(chi2) still
-  // 0.003 above the optimum by design). A reference solver should stop at the numerical optimum,
-  // so the default is 1e-10, far below any real progress (sqrt(chi2) of these graphs is 1..23, and
-  // the last accepted steps decrease it by ~1e-11..1e-14): in practice the run ends once the
-  // quadratic convergence has hit rounding. Set 0.005 to reproduce the seed's rule exactly.
+  // absolute threshold. The seed's 0.005 stops a step or two before the optimum, by design. A
+  // reference solver should stop at the numerical optimum, so the default is far below any real
+  // progress: the run ends once the quadratic convergence has hit rounding. Set 0.005 to
+  // reproduce the seed's rule exactly.
   double error_decrease_tolerance = 1e-10;
   // Gauss-Newton only: stop (converged) when |chi2_old - chi2_new| <= this * chi2_old after a step.
   double gn_relative_decrease_tolerance = 1e-12;

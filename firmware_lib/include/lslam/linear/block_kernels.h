@@ -6,9 +6,9 @@
 // compute the same bits. On an x86-64 host the two loops that dominate a large factor's updates
 // also have AVX2/FMA forms for D = 3: a 3 x 3 block's columns of 3 leave SSE2's 2-lane registers
 // a lane short, a 4-lane register takes a column in one instruction, and a fused multiply-add is
-// one instruction where a multiply and an add are two (the row update at 9,000 city10000 poses:
-// 172 -> 143 us). They are chosen at run time (cpuHasAvxFma), so the host binary still runs on
-// any x86-64; a host without FMA computes the same bits through std::fma in software, only slower.
+// one instruction where a multiply and an add are two. They are chosen at run time
+// (cpuHasAvxFma), so the host binary still runs on any x86-64; a host without FMA computes the
+// same bits through std::fma in software, only slower.
 // The Cortex-M7's FPU fuses in hardware (vfma.f64). Elsewhere cpuHasAvxFma() is false.
 #include <cmath>
 
@@ -19,8 +19,7 @@ namespace lslam {
 namespace detail {
 
 // t += b * s: each entry t(i, c) takes b(i, 0) s(0, c), then b(i, 1) s(1, c), ..., each fused.
-// On x86-64 only; elsewhere Eigen's product, which takes the fewest instructions on the scalar
-// Cortex-M (an entry-by-entry form cost its relinearizations 19 % more).
+// On x86-64 only; elsewhere Eigen's product, the fewest instructions on the scalar Cortex-M.
 template <int D>
 inline void addBlockProduct(Eigen::Matrix<double, D, D>& t, const Eigen::Matrix<double, D, D>& b,
                             const Eigen::Matrix<double, D, D>& s) {
@@ -39,9 +38,8 @@ inline void addBlockProduct(Eigen::Matrix<double, D, D>& t, const Eigen::Matrix<
 
 // b = b l^T for a lower-triangular l (only its lower triangle is read): each entry b(i, j) becomes
 // b(i, 0) l(j, 0), then + b(i, m) l(j, m) for m = 1 .. j, each fused: D (D + 1) / 2 multiply-adds
-// per row where the general product takes D^2 (a factorized column's blocks times L(k,k)^-T;
-// manhattanOlson3500: 2.795 -> 2.749 G instructions with the AVX form). On x86-64 only; elsewhere
-// Eigen's product, as addBlockProduct.
+// per row where the general product takes D^2 (a factorized column's blocks times L(k,k)^-T).
+// On x86-64 only; elsewhere Eigen's product, as addBlockProduct.
 template <int D>
 inline void multiplyByTransposedLower(Eigen::Matrix<double, D, D>& b,
                                       const Eigen::Matrix<double, D, D>& l) {
@@ -55,8 +53,7 @@ inline void multiplyByTransposedLower(Eigen::Matrix<double, D, D>& b,
     }
   }
 #else
-  // (The Cortex-M7 took more instructions with the triangular loop: the stream's reorders
-  // 2,028,200 -> 2,349,480 at the median, worst 8.94 -> 9.98 M.)
+  // On the Cortex-M7 the triangular loop takes more instructions than Eigen's product.
   b = (b * l.transpose()).eval();
 #endif
 }
@@ -72,7 +69,7 @@ inline void applyRowReflections(const Eigen::Matrix<double, D, D>* u,
                                 const Eigen::Matrix<double, D, 1>& beta, XL& x_l, XW* const* x_w) {
   for (Eigen::Index i = 0; i < x_l.rows(); ++i) {
     // The row in locals for all D reflections: through the matrices, every store may alias u for
-    // all the compiler knows, and the scalar Cortex-M reloaded the row after each one.
+    // all the compiler knows, and the scalar Cortex-M would reload the row after each one.
     double l[D];
     double x[M][D];
 #pragma GCC unroll 6
@@ -121,8 +118,7 @@ inline constexpr int kSolutionStride = D == 3 ? 4 : D;
 // zero), and x(c) takes the three sums of column c as x(c) - ((s_0 + s_1) + s_2): a SIMD lane per
 // row, reduced once per column. Row 1 is the column's parent, the column the back-substitution
 // solved just before (in a postordered factor): with its product last, the others need not wait
-// for its solution, and an out-of-order core overlaps them with the parent's own column (a
-// column-order solve of city10000's factor at 9,500 poses: 2.9-3.1 -> 2.6-3.0 ns per block).
+// for its solution, and an out-of-order core overlaps them with the parent's own column.
 inline void subtractTransposedProductsFused(Vec3& x, const Mat3* blocks, const Index* rows,
                                             Index size, const double* solution) {
   Mat3 acc = Mat3::Zero();
@@ -141,9 +137,9 @@ inline void subtractTransposedProductsFused(Vec3& x, const Mat3* blocks, const I
 // so the checks cost the target nothing).
 #if defined(__x86_64__)
 // Inline, as a load and a test of the feature bits that libgcc's constructor fills before any
-// ordinary static constructor runs: the solve asks once per column, where a call into a function
-// with a guarded static was ~0.1 % of city10000's instructions (hoisting the check out of the
-// solve instead had changed GCC's inlining on the Cortex-M, where the check is dead code).
+// ordinary static constructor runs: the solve asks once per column, too often for a call into a
+// function with a guarded static. (Hoisted out of the solve, the check would change GCC's inlining
+// on the Cortex-M, where it is dead code.)
 inline bool cpuHasAvxFma() {
   return __builtin_cpu_supports("avx2") != 0 && __builtin_cpu_supports("fma") != 0;
 }
@@ -173,8 +169,8 @@ LSLAM_TARGET_AVX_FMA void applyRowReflectionsFromAvx(const Mat3* u, const Vec3& 
                                                      Index size, Mat3* const* w);
 
 // applyRowReflections<3, M> on one row (the right-hand side's, [d^T b_0^T ..] of the row update),
-// compiled for AVX2/FMA: outside such a function std::fma is a call into libm on x86-64 (0.6 % of
-// city10000's run went to those calls). The same bits. Instantiated for M = 1 and 2.
+// compiled for AVX2/FMA: outside such a function std::fma is a call into libm on x86-64. The same
+// bits. Instantiated for M = 1 and 2.
 template <int M>
 LSLAM_TARGET_AVX_FMA void applyRowReflectionsToRowAvx(const Mat3* u, const Vec3& beta,
                                                       Eigen::Matrix<double, 1, 3>& x_l,

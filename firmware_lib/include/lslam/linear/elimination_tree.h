@@ -10,8 +10,8 @@
 // counts, the tree links, the solution) is read in sequence instead of at random.
 //
 // COLAMD's order is not one (it orders the columns of A, and the newest variable is pinned last
-// afterwards). city10000: 57 % of the solve's steps from one column to the next jumped, 56 % by
-// more than 16 positions (another cache line of every per-column array); postordered, 0.9 %.
+// afterwards): in it, most of the solve's steps from one column to the next jump, often to another
+// cache line of every per-column array.
 #include "lslam/linear/index.h"
 #include "lslam/linear/information_source.h"
 

@@ -389,7 +389,7 @@ class StaticCholeskyStorage {
 // instantiated, member by member, in the source file that defines it
 // (src/linear/incremental_cholesky*.cpp); the members defined in the class body are inline and
 // instantiated where they are used. No `extern template class` here: with it, GCC at -O0 expects
-// those inline members from an explicit instantiation of the whole class, which the sources no
-// longer have (see incremental_cholesky.cpp).
+// those inline members from an explicit instantiation of the whole class, which the sources do
+// not make (see incremental_cholesky.cpp).
 
 }  // namespace lslam
