@@ -1,6 +1,8 @@
 // PoseGraph2D as the factorization's source of Lambda and eta: the assembly that linearizes each
 // factor once (adding to the later variable's diagonal and eta ahead of time) against a dense
-// J^T Omega J built from central-difference Jacobians, in random column orders.
+// J^T Omega J built from central-difference Jacobians, in random column orders; and the whitened
+// rows of the row update against host_sim's analytic Jacobians, for an information matrix
+// symmetric only to rounding.
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -12,6 +14,9 @@
 #include <set>
 #include <vector>
 
+#include "host_sim/batch_solver.h"
+#include "host_sim/chi2.h"
+#include "lslam/factors/information.h"
 #include "lslam/factors/pose_graph_2d.h"
 #include "lslam/factors/se2_factors.h"
 #include "numerical_diff.h"
@@ -290,4 +295,122 @@ TEST_CASE("the linearization cache gives what a fresh linearization gives, bit f
 TEST_CASE("the linearization cache forgets everything when its epoch wraps") {
   // 30 updates advance the epoch by up to 60: starting 20 below the wrap passes through it.
   checkCacheAgainstFresh(std::numeric_limits<std::uint32_t>::max() - 20, kSeed + 2);
+}
+
+namespace {
+
+sim::Pose2D toPose2D(const SE2& p) {
+  return sim::Pose2D{p.x(), p.y(), p.theta()};
+}
+
+// A factor's share of Lambda (6 x 6 over its variables first, second; 3 x 3 for a prior) and of
+// eta.
+struct Share {
+  Eigen::MatrixXd lambda;
+  Eigen::VectorXd eta;
+};
+
+// The reference share of e^T Omega e, from host_sim's analytic g2o Jacobians (independent of
+// firmware_lib; the same first derivatives as the right perturbation) and the symmetric part of
+// Omega: J^T Omega_s J and -J^T Omega_s e. A prior is an edge from the identity pose.
+Share referenceShare(const SE2* first, const SE2& second, const SE2& z, const Mat3& omega) {
+  const Mat3 symmetric = 0.5 * (omega + omega.transpose());
+  const sim::Pose2D xi = first != nullptr ? toPose2D(*first) : sim::Pose2D{};
+  Eigen::Matrix3d j_i;
+  Eigen::Matrix3d j_j;
+  sim::edgeJacobiansG2o(xi, toPose2D(second), toPose2D(z), &j_i, &j_j);
+  const Eigen::Vector3d e = sim::edgeErrorG2o(xi, toPose2D(second), toPose2D(z));
+  Eigen::MatrixXd j(3, first != nullptr ? 6 : 3);
+  if (first != nullptr) {
+    j << j_i, j_j;
+  } else {
+    j = j_j;
+  }
+  return Share{j.transpose() * symmetric * j, -(j.transpose() * symmetric * e)};
+}
+
+// The same share as the row update takes it: A^T A and A^T b of the whitened rows.
+Share whitenedShare(const PoseGraph2D& graph, Index factor) {
+  const Index position[2] = {0, 1};
+  Index positions[2];
+  Mat3 rows[2];
+  Vec3 rhs;
+  const Index count = graph.whitenedRows(factor, position, positions, rows, &rhs);
+  Share s{Eigen::MatrixXd::Zero(3 * count, 3 * count), Eigen::VectorXd::Zero(3 * count)};
+  for (Index a = 0; a < count; ++a) {
+    s.eta.segment<3>(3 * positions[a]) = rows[a] * rhs;
+    for (Index b = 0; b < count; ++b)
+      s.lambda.block<3, 3>(3 * positions[a], 3 * positions[b]) = rows[a] * rows[b].transpose();
+  }
+  return s;
+}
+
+// ...and as a full assembly takes it (the graph holding that one factor): the lower triangle.
+Share assembledShare(const PoseGraph2D& graph) {
+  const Index n = graph.variables();
+  std::vector<Index> variable_at(n);
+  std::iota(variable_at.begin(), variable_at.end(), 0);
+  const std::vector<double> all = assembleAll(graph, variable_at);
+  Share s{Eigen::MatrixXd::Zero(3 * n, 3 * n), Eigen::VectorXd::Zero(3 * n)};
+  std::size_t at = 0;
+  for (Index k = 0; k < n; ++k) {
+    for (Index r = k; r < n; ++r, at += 9) {
+      const Mat3 block = Eigen::Map<const Mat3>(all.data() + at);
+      s.lambda.block<3, 3>(3 * r, 3 * k) = block;
+      if (r > k) s.lambda.block<3, 3>(3 * k, 3 * r) = block.transpose();
+    }
+    s.eta.segment<3>(3 * k) = Eigen::Map<const Vec3>(all.data() + at);
+    at += 3;
+  }
+  return s;
+}
+
+double shareError(const Share& a, const Share& reference) {
+  const double scale = reference.lambda.cwiseAbs().maxCoeff() + reference.eta.cwiseAbs().maxCoeff();
+  return std::max((a.lambda - reference.lambda).cwiseAbs().maxCoeff(),
+                  (a.eta - reference.eta).cwiseAbs().maxCoeff()) /
+         scale;
+}
+
+}  // namespace
+
+TEST_CASE(
+    "information symmetric only to rounding: the assembled column and the whitened rows both "
+    "take its symmetric part") {
+  // Omega far from isotropic (the heading's information 1e8), its (1, 2) pair apart by 0.9e-9 of
+  // that, inside checkInformation's tolerance: 0.09 beside the 1 of y, which the share of Lambda
+  // shows far above rounding (1e-16 of 1e8).
+  std::mt19937 rng(kSeed + 3);
+  auto storage = std::make_unique<StaticPoseGraph2DStorage<2, 1>>();
+  for (int c = 0; c < 200; ++c) {
+    CAPTURE(c);
+    Mat3 omega;
+    omega << 5.0, 0.3, 0.2,  //
+        0.3, 1.0, 0.1,       //
+        0.2, 0.1, 1e8;
+    omega(1, 2) += 0.45e-9 * 1e8;
+    omega(2, 1) -= 0.45e-9 * 1e8;
+    REQUIRE(checkInformation(omega) == Status::Ok);
+    const SE2 xi = randomPose(rng, c);
+    const SE2 xj = randomPose(rng, c + 1);
+    const SE2 z =
+        fromMatrix(toMatrix(xi).inverse() * toMatrix(xj) * expMatrix(0.2 * randomTangent(rng, c)));
+    for (const bool prior : {false, true}) {
+      CAPTURE(prior);
+      PoseGraph2D graph(storage->arrays());
+      graph.beginUpdate();
+      if (prior) {
+        graph.addVariable(xj);
+        graph.addPrior(0, z, omega);
+      } else {
+        graph.addVariable(xi);
+        graph.addVariable(xj);
+        graph.addBetween(0, 1, z, omega);
+      }
+      graph.commit();
+      const Share reference = referenceShare(prior ? nullptr : &xi, xj, z, omega);
+      CHECK(shareError(whitenedShare(graph, 0), reference) < 1e-14);
+      CHECK(shareError(assembledShare(graph), reference) < 1e-14);
+    }
+  }
 }

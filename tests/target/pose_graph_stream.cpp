@@ -173,7 +173,7 @@ void checkResult(lslam::target::Checks& checks) {
   printValue("chi2 target incremental  ", chi2);
   printValue("chi2 host incremental    ", stream::kHostIncrementalChi2);
   printValue("chi2 host batch optimum  ", stream::kBatchChi2);
-  printValue("chi2 target solver (with anchor prior) ", g_solver.chi2());
+  printValue("chi2 target solver (its own chi2()) ", g_solver.chi2());
   printValue("relative chi2 difference target vs host incremental ", host_relative);
   printValue("relative chi2 excess over the batch optimum ", batch_relative);
   printValue("max pose difference vs host incremental (m)   ", host.position);

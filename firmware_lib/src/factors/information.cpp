@@ -11,13 +11,28 @@ namespace {
 constexpr double kSymmetryTolerance = 1e-9;
 
 template <int N>
+Status check(const Eigen::Matrix<double, N, N>& information) noexcept;
+
+// An input symmetric only to rounding is judged as its symmetric part, the matrix that is stored
+// and used; that one is exactly symmetric, so check() factorizes it. Out of line: check()'s
+// common path (exactly symmetric input) compiles as if this did not exist.
+template <int N>
+[[gnu::cold, gnu::noinline]] Status checkSymmetricPart(
+    const Eigen::Matrix<double, N, N>& information) noexcept {
+  Eigen::Matrix<double, N, N> symmetric = information;
+  symmetrize(symmetric);
+  return check<N>(symmetric);
+}
+
+template <int N>
 Status check(const Eigen::Matrix<double, N, N>& information) noexcept {
   if (!information.allFinite()) return Status::NonFiniteInput;
   const double scale = information.cwiseAbs().maxCoeff();
   const double asymmetry = (information - information.transpose()).cwiseAbs().maxCoeff();
   if (asymmetry > kSymmetryTolerance * scale) return Status::InformationNotPositiveDefinite;
-  // Fixed-size LLT: no allocation. It reads only the lower triangle, which the symmetry test
-  // above makes representative of the whole matrix.
+  if (asymmetry != 0.0) return checkSymmetricPart<N>(information);
+  // Fixed-size LLT: no allocation. It reads only the lower triangle, all of the (exactly
+  // symmetric) matrix.
   // LLT fails only on a pivot <= 0; an intermediate overflow (inf - inf) gives a NaN pivot, which
   // passes that test (finite, indefinite [1e-300 0 1e300; 0 1 0; 1e300 0 1] did). A non-finite
   // entry anywhere in the factor reaches a later pivot (L(i,i)^2 = A(i,i) - sum_j L(i,j)^2), so

@@ -3,6 +3,7 @@
 #include <Eigen/Cholesky>
 #include <cstring>
 
+#include "lslam/factors/information.h"
 #include "lslam/factors/se2_factors.h"
 
 namespace lslam {
@@ -49,6 +50,7 @@ Index PoseGraph2D::addPrior(Index variable, const SE2& z, const Mat3& informatio
   a_.second_variable[f] = kNoIndex;
   a_.measurement[f] = z;
   a_.information[f] = information;
+  symmetrize(a_.information[f]);
   link(variable, f);
   return f;
 }
@@ -62,10 +64,19 @@ Index PoseGraph2D::addBetween(Index from, Index to, const SE2& z, const Mat3& in
   a_.second_variable[f] = to;
   a_.measurement[f] = z;
   a_.information[f] = information;
+  symmetrize(a_.information[f]);
   if (cache_) a_.linearized_epoch[f] = 0;  // nothing cached (may hold a rolled-back factor's)
   link(from, f);
   link(to, f);
   return f;
+}
+
+void PoseGraph2D::disablePrior(Index factor) {
+  LSLAM_ASSERT(in_update_ && disabled_ == kNoIndex && factor >= 0 && factor < committed_factors_ &&
+               a_.kind[factor] == FactorKind::PriorSE2);
+  disabled_ = factor;
+  disabled_information_ = a_.information[factor];
+  a_.information[factor].setZero();
 }
 
 void PoseGraph2D::relinearize(Index variable, const SE2& point) {
@@ -98,6 +109,7 @@ void PoseGraph2D::commit() {
   committed_variables_ = num_variables_;
   committed_factors_ = num_factors_;
   committed_entries_ = num_entries_;
+  disabled_ = kNoIndex;
   in_update_ = false;
 }
 
@@ -132,6 +144,8 @@ void PoseGraph2D::rollback() {
   num_variables_ = committed_variables_;
   num_factors_ = committed_factors_;
   num_entries_ = committed_entries_;
+  if (disabled_ != kNoIndex) a_.information[disabled_] = disabled_information_;
+  disabled_ = kNoIndex;
   in_update_ = false;
 }
 

@@ -44,7 +44,8 @@ PoseGraphSolver2D::PoseGraphSolver2D(const SolverArrays& arrays, const PoseGraph
 }
 
 Status PoseGraphSolver2D::validate(const PoseInput* poses, Index num_poses,
-                                   const FactorInput* factors, Index num_factors) {
+                                   const FactorInput* factors, Index num_factors, Index* priors) {
+  *priors = 0;
   if (num_poses < 0 || num_factors < 0 || (num_poses > 0 && poses == nullptr) ||
       (num_factors > 0 && factors == nullptr)) {
     return Status::InvalidArgument;
@@ -67,28 +68,39 @@ Status PoseGraphSolver2D::validate(const PoseInput* poses, Index num_poses,
     }
     ids_.insert(poses[inserted].id, graph_.variables() + inserted);
   }
+  Index prior_count = 0;
   for (Index f = 0; f < num_factors && status == Status::Ok; ++f) {
     const FactorInput& in = factors[f];
-    const bool between = in.kind == FactorKind::BetweenSE2;
-    if (ids_.find(in.from) == kNoIndex || (between && ids_.find(in.to) == kNoIndex)) {
+    const int arity = factorArity(in.kind);
+    if (arity == 0) {
+      status = Status::InvalidArgument;  // not a FactorKind
+    } else if (ids_.find(in.from) == kNoIndex || (arity == 2 && ids_.find(in.to) == kNoIndex)) {
       status = Status::UnknownVariable;
-    } else if (between && in.from == in.to) {
+    } else if (arity == 2 && in.from == in.to) {
       status = Status::InvalidArgument;
     } else if (!isFinite(in.measurement)) {
       status = Status::NonFiniteInput;
     } else {
       status = checkInformation(in.information);
     }
+    prior_count += arity == 1 ? 1 : 0;
   }
-  if (status == Status::Ok) status = checkAnchored(poses, num_poses, factors, num_factors);
+  *priors = prior_count;
+  // The anchor takes a factor too (update()).
+  const bool anchor = anchorsFirstPose(num_poses, prior_count);
+  if (status == Status::Ok && anchor && num_factors + 1 > graph_.maxFactors()) {
+    status = Status::CapacityExhausted;
+  }
+  if (status == Status::Ok) status = checkAnchored(num_poses, factors, num_factors, anchor);
   if (status != Status::Ok) forgetNewIds(poses, inserted);
   return status;
 }
 
 // Every added pose must be tied to the existing graph (or to a prior) through this call's factors;
 // a pose floating free would make Lambda singular, and rounding could hide that from the pivots.
-Status PoseGraphSolver2D::checkAnchored(const PoseInput*, Index num_poses,
-                                        const FactorInput* factors, Index num_factors) const {
+// `anchor`: the solver anchors the first added pose (update() adds a prior).
+Status PoseGraphSolver2D::checkAnchored(Index num_poses, const FactorInput* factors,
+                                        Index num_factors, bool anchor) const {
   const Index first_new = graph_.variables();
   Index anchored = 0;
   bool progress = true;
@@ -96,8 +108,7 @@ Status PoseGraphSolver2D::checkAnchored(const PoseInput*, Index num_poses,
   // repeated sweeps stay small.
   Index* is_anchored = a_.visited;
   for (Index i = 0; i < num_poses; ++i) is_anchored[i] = 0;
-  // The very first pose of an empty graph is anchored by the solver (update() adds a prior).
-  if (first_new == 0 && num_poses > 0) {
+  if (anchor) {
     is_anchored[0] = 1;
     anchored = 1;
   }
@@ -106,7 +117,7 @@ Status PoseGraphSolver2D::checkAnchored(const PoseInput*, Index num_poses,
     for (Index f = 0; f < num_factors; ++f) {
       const FactorInput& in = factors[f];
       const Index a = ids_.find(in.from) - first_new;
-      if (in.kind == FactorKind::PriorSE2) {
+      if (factorArity(in.kind) == 1) {
         if (a >= 0 && is_anchored[a] == 0) {
           is_anchored[a] = 1;
           ++anchored;
@@ -207,13 +218,15 @@ bool PoseGraphSolver2D::orderingFresh() const {
 
 // COLAMD on the factor-variable incidence of every variable except the newest committed one,
 // which goes last, followed by the variables this update adds: the next odometry factor then
-// touches only the last columns, so it stays constant-time after a reordering too.
+// touches only the last columns, so it stays constant-time after a reordering too. With nothing
+// committed (a first update that reorders, or retries for room) the ordered variables are the
+// update's own, its newest last.
 Status PoseGraphSolver2D::computeOrdering(Index* variable_at, Index* position_of) {
-  const Index committed = cholesky_.columns();
-  const Index last = committed - 1;
+  const Index ordered = cholesky_.columns() > 0 ? cholesky_.columns() : graph_.variables();
+  if (ordered == 0) return Status::Ok;  // an empty graph: nothing to order
+  const Index last = ordered - 1;
   ordering_.begin();
-  for (Index v = 0; v < committed; ++v) {
-    if (v == last) continue;
+  for (Index v = 0; v < last; ++v) {
     ordering_.startColumn();
     for (Index e = graph_.firstEntry(v); e != kNoIndex; e = graph_.nextEntry(e)) {
       if (!ordering_.addEntry(graph_.entryFactor(e))) return Status::WorkspaceExhausted;
@@ -223,14 +236,13 @@ Status PoseGraphSolver2D::computeOrdering(Index* variable_at, Index* position_of
   if (s != Status::Ok) return s;
   // The columns given to COLAMD were the variables 0 .. last - 1 in order: its output is already
   // in variable numbers.
-  variable_at[last] = last;
-  for (Index v = committed; v < graph_.variables(); ++v) variable_at[v] = v;
+  for (Index v = last; v < graph_.variables(); ++v) variable_at[v] = v;
   for (Index k = 0; k < graph_.variables(); ++k) position_of[variable_at[k]] = k;
   // Postordered (same fill) so that the solve reads the per-column arrays in sequence. The solve's
   // visit list and the reordered update's list are idle while an ordering is computed.
-  postorderEliminationOrder(committed, variable_at, position_of, graph_, a_.visited, a_.last_list);
+  postorderEliminationOrder(ordered, variable_at, position_of, graph_, a_.visited, a_.last_list);
   LSLAM_ASSERT(variable_at[last] == last);
-  for (Index k = 0; k < committed; ++k) position_of[variable_at[k]] = k;
+  for (Index k = 0; k < ordered; ++k) position_of[variable_at[k]] = k;
   return Status::Ok;
 }
 
@@ -263,25 +275,29 @@ Status PoseGraphSolver2D::update(const PoseInput* poses, Index num_poses,
   UpdateResult local;
   UpdateResult& r = result != nullptr ? *result : local;
   r = UpdateResult{};
-  const bool anchor = graph_.variables() == 0 && num_poses > 0;
-  Status s = (anchor && num_factors + 1 > graph_.maxFactors())
-                 ? Status::CapacityExhausted
-                 : validate(poses, num_poses, factors, num_factors);
+  Index priors = 0;
+  Status s = validate(poses, num_poses, factors, num_factors, &priors);
   if (s != Status::Ok) {
     r.status = s;
     return s;
   }
+  // The gauge (see the class comment): the first update anchors its first pose unless it brings a
+  // prior of the caller's; the first caller prior after that takes the anchor out.
+  const bool anchor = anchorsFirstPose(num_poses, priors);
+  const bool drop_anchor = anchor_factor_ != kNoIndex && priors > 0;
   graph_.beginUpdate();
   first_new_factor_ = graph_.factors();
   for (Index i = 0; i < num_poses; ++i) graph_.addVariable(poses[i].initial);
   if (anchor) {
-    // The gauge: the first pose stays where it was given (chi2 is gauge-invariant, so the strength
-    // of this prior does not change the optimum).
+    // The first pose stays where it was given (chi2 is gauge-invariant, so the strength of this
+    // prior does not change the optimum).
     graph_.addPrior(0, poses[0].initial, Mat3::Identity() * options_.anchor_information);
   }
+  if (drop_anchor) graph_.disablePrior(anchor_factor_);
   for (Index f = 0; f < num_factors; ++f) {
     const FactorInput& in = factors[f];
-    if (in.kind == FactorKind::PriorSE2) {
+    // (validate() let through only arities 1 and 2.)
+    if (factorArity(in.kind) == 1) {
       graph_.addPrior(ids_.find(in.from), in.measurement, in.information);
     } else {
       graph_.addBetween(ids_.find(in.from), ids_.find(in.to), in.measurement, in.information);
@@ -289,12 +305,14 @@ Status PoseGraphSolver2D::update(const PoseInput* poses, Index num_poses,
   }
   // Every update begins the factor's update at least once, which does a pending layout.
   r.laid_out = cholesky_.layoutPending();
-  const UpdatePlan plan = planUpdate(num_poses);
+  const UpdatePlan plan = planUpdate(num_poses, drop_anchor);
   s = refactor(num_poses, plan, true, r);
   if (s != Status::Ok) {
     forgetNewIds(poses, num_poses);
     return s;
   }
+  if (anchor) anchor_factor_ = first_new_factor_;
+  if (drop_anchor) anchor_factor_ = kNoIndex;
   if (plan.relinearize_now) {
     keepWaitingCandidates();
     updates_since_relinearization_ = 0;
@@ -315,9 +333,11 @@ Status PoseGraphSolver2D::update(const PoseInput* poses, Index num_poses,
 // prepared ordering is applied now; a stale one is replaced now, or prepared at the end of this
 // update and applied by the next (prepare_ordering_ahead). The candidates are relinearized when
 // one is urgent, at a reordering, or every relinearize_skip updates; in place, or by a full
-// refactorization when that is cheaper (relinearizationDear).
-PoseGraphSolver2D::UpdatePlan PoseGraphSolver2D::planUpdate(Index new_poses) {
+// refactorization when that is cheaper (relinearizationDear). An update that drops the anchor
+// reorders now, a full refactorization: a factor cannot be taken out of L in place.
+PoseGraphSolver2D::UpdatePlan PoseGraphSolver2D::planUpdate(Index new_poses, bool drop_anchor) {
   UpdatePlan plan;
+  plan.drop_anchor = drop_anchor;
   placeAddedVariablesLast();
   // (Counting the loop closures is skipped when the update has too few factors to be a burst.)
   const Index burst = options_.reorder_burst_loop_closures;
@@ -325,9 +345,9 @@ PoseGraphSolver2D::UpdatePlan PoseGraphSolver2D::planUpdate(Index new_poses) {
                         graph_.variables() >= options_.reorder_min_variables &&
                         addedLoopClosures(a_.position_of[active_]) > burst;
   const bool ordering_stale = ordering_prepared_ || plan.fresh_ordering || wantsReorder();
-  plan.prepare_ordering =
-      ordering_stale && !ordering_prepared_ && !plan.fresh_ordering && preparesOrderingAhead();
-  plan.reorder_now = ordering_stale && !plan.prepare_ordering;
+  plan.prepare_ordering = ordering_stale && !ordering_prepared_ && !plan.fresh_ordering &&
+                          !drop_anchor && preparesOrderingAhead();
+  plan.reorder_now = (ordering_stale || drop_anchor) && !plan.prepare_ordering;
   plan.relinearize_now = relinearization_urgent_ || plan.reorder_now ||
                          (options_.relinearize_skip > 0 &&
                           updates_since_relinearization_ + 1 >= options_.relinearize_skip);
@@ -435,7 +455,7 @@ Status PoseGraphSolver2D::refactor(Index new_poses, const UpdatePlan& plan, bool
       reorder = fresh = computeFreshOrdering(&prepared_overwritten);
     }
     if (!reorder) buffer = active_;  // no workspace for an ordering: keep the current one
-    full = reorder;
+    full = reorder || plan.drop_anchor;
   }
   // (In the active order the added variables are last already: placeAddedVariablesLast.)
   const Index* variable_at = a_.variable_at[buffer];
@@ -763,9 +783,11 @@ Status PoseGraphSolver2D::estimate(VariableId id, SE2* pose) const {
   return Status::Ok;
 }
 
+// The caller's factors only: the anchor is skipped (a dropped one has zero information).
 double PoseGraphSolver2D::chi2() const {
   double total = 0.0;
   for (Index f = 0; f < graph_.factors(); ++f) {
+    if (f == anchor_factor_) continue;
     const Index i = graph_.firstVariable(f);
     Vec3 e;
     if (graph_.kind(f) == FactorKind::PriorSE2) {

@@ -5,7 +5,13 @@
 // demand, so there is no stored Lambda to keep in sync.
 //
 // Every change belongs to an update that is committed or rolled back as a whole, and a rollback
-// restores every stored value bit for bit (factors are appended, relinearizations are staged).
+// restores every stored value bit for bit (factors are appended, relinearizations and a disabled
+// prior are staged).
+//
+// Information matrices are stored symmetric: an input that is symmetric only to rounding
+// (checkInformation accepts 1e-9 relative) is stored as its symmetric part (symmetricPart), so
+// that every use of it (Omega in J^T Omega J, its Cholesky factor in whitenedRows) is of one
+// matrix.
 #include <cstdint>
 
 #include "lslam/eigen.h"
@@ -16,6 +22,19 @@
 namespace lslam {
 
 enum class FactorKind : std::uint8_t { PriorSE2, BetweenSE2 };
+
+// The variables a factor of this kind connects: 1 (a prior) or 2 (a between); 0 for a value that
+// names no kind (one from outside, cast from an integer). The single dispatch on an input's kind,
+// so that what validates an input and what adds it cannot disagree.
+constexpr int factorArity(FactorKind kind) noexcept {
+  switch (kind) {
+    case FactorKind::PriorSE2:
+      return 1;
+    case FactorKind::BetweenSE2:
+      return 2;
+  }
+  return 0;
+}
 
 // A between factor's share of Lambda and eta at given points of its two variables (first, second):
 // J_first^T Omega J_first, J_second^T Omega J_second, J_second^T Omega J_first = Lambda(second,
@@ -67,6 +86,11 @@ class PoseGraph2D final : public InformationSource<3> {
   Index addVariable(const SE2& initial);
   Index addPrior(Index variable, const SE2& z, const Mat3& information);
   Index addBetween(Index from, Index to, const SE2& z, const Mat3& information);
+  // Takes a committed prior out of the problem: its information becomes zero, so that it adds
+  // nothing to Lambda, eta or the error (it stays in its variable's factor list). At most one per
+  // update; a rollback restores it. No column change is assembled for it: the update that disables
+  // a prior must refactorize every column.
+  void disablePrior(Index factor);
   // Moves the linearization point of `variable` (staged until commit).
   void relinearize(Index variable, const SE2& point);
   // Forgets the linearization points staged by relinearize() in this update (the update's added
@@ -141,6 +165,8 @@ class PoseGraph2D final : public InformationSource<3> {
   // while its epoch is not older than either variable's point_epoch.
   std::uint32_t epoch_ = 1;
   Index staged_count_ = 0;
+  Index disabled_ = kNoIndex;  // the prior disabled by the update in progress
+  Mat3 disabled_information_;  // ...and its information before
   bool in_update_ = false;
   bool cache_ = false;
 

@@ -9,6 +9,21 @@
 // A call that returns anything but Status::Ok has changed no value: inputs are validated before
 // any change, and the factorization writes to staging memory until it has succeeded (a rejected
 // update may have done the solve layout a full refactorization left pending, a storage order).
+//
+// The gauge. Between factors fix the poses only up to a rigid motion; priors fix it. The caller's
+// priors (absolute measurements: GPS, a known start) are part of the problem; when the caller has
+// given none, the solver fixes the gauge itself with the anchor, a prior of information
+// SolverOptions::anchor_information holding the first pose where it was given. So:
+//  - a first update with a prior of the caller's gets no anchor (each of its poses must then be
+//    tied to a prior through its factors);
+//  - a first update without one anchors its first pose, and the anchor stays exactly as long as
+//    no caller prior has come: the update that brings the first one takes the anchor out of the
+//    problem (it keeps its factor slot with zero information) and, since a factor cannot be taken
+//    out of L in place, reorders and refactorizes every column, once;
+//  - chi2() sums the caller's factors only, never the anchor.
+// The optimum is then always that of the caller's factors alone: with priors, theirs; without,
+// the between factors' optimum in the gauge of the first pose (which the anchor, at zero error
+// there, does not move).
 #include <cstddef>
 #include <cstdint>
 
@@ -28,7 +43,10 @@ struct PoseInput {
   SE2 initial;
 };
 
-// A measurement: a prior on pose `from` (to is ignored), or pose `to` seen from pose `from`.
+// A measurement: a prior on pose `from` (to is ignored), or pose `to` seen from pose `from`. A
+// kind outside FactorKind is rejected (InvalidArgument). The information must be symmetric
+// positive definite (checkInformation); one symmetric only to rounding is used as its symmetric
+// part (symmetricPart), whichever path the update takes.
 struct FactorInput {
   FactorKind kind = FactorKind::BetweenSE2;
   VariableId from = 0;
@@ -77,7 +95,8 @@ class PoseGraphSolver2D {
   // The solution's step of a variable from its linearization point (estimateAt() retracts it).
   const Vec3& deltaAt(Index variable) const { return a_.delta[variable]; }
   VariableId idAt(Index variable) const { return a_.id_of[variable]; }
-  // Sum of e^T Omega e over all factors at the current estimate (priors included).
+  // Sum of e^T Omega e over the caller's factors at the current estimate (its priors included,
+  // the anchor not: see the gauge above).
   double chi2() const;
 
   Index poses() const { return graph_.variables(); }
@@ -98,17 +117,23 @@ class PoseGraphSolver2D {
     Index relinearized = 0;         // variables whose linearization points are staged
     bool refactor_fully = false;    // relinearize by a full refactorization in the current order
     bool fresh_ordering = false;    // reorder_now, in an ordering with this update's factors
+    bool drop_anchor = false;       // the anchor leaves: every column refactorized, whatever else
   };
 
+  // Also counts the caller's priors among the factors (valid or not: read only on Ok).
   Status validate(const PoseInput* poses, Index num_poses, const FactorInput* factors,
-                  Index num_factors);
-  Status checkAnchored(const PoseInput* poses, Index num_poses, const FactorInput* factors,
-                       Index num_factors) const;
+                  Index num_factors, Index* priors);
+  Status checkAnchored(Index num_poses, const FactorInput* factors, Index num_factors,
+                       bool anchor) const;
+  // Whether an update of num_poses poses and `priors` caller priors gets the anchor (the gauge).
+  bool anchorsFirstPose(Index num_poses, Index priors) const {
+    return graph_.variables() == 0 && num_poses > 0 && priors == 0;
+  }
   void forgetNewIds(const PoseInput* poses, Index num_poses);
   bool wantsReorder() const;
   bool relinearizesMost(Index relinearized) const;
   bool relinearizationDear(Index new_poses, Index relinearized);
-  UpdatePlan planUpdate(Index new_poses);
+  UpdatePlan planUpdate(Index new_poses, bool drop_anchor);
   bool orderingFresh() const;
   bool likelyOutOfPool(bool full, Index relinearized, const Index* position_of) const;
   void noteOrderingWork(bool reordered, std::int64_t block_products);
@@ -178,6 +203,7 @@ class PoseGraphSolver2D {
   // variables, prepared by an earlier update for the next one (see prepare_ordering_ahead).
   bool ordering_prepared_ = false;
   Index prepared_variables_ = 0;
+  Index anchor_factor_ = kNoIndex;  // the anchor's factor while it is in the problem
 };
 
 namespace detail {

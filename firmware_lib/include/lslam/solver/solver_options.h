@@ -103,7 +103,8 @@ struct SolverOptions {
   bool cache_linearizations = true;
   // Never reorder graphs smaller than this (chronological order is optimal for a chain).
   Index reorder_min_variables = 50;
-  // Information of the prior that anchors the very first pose when the caller gives none.
+  // Information of the prior that anchors the very first pose when the caller gives none; it
+  // leaves the problem with the caller's first prior (see "The gauge" in pose_graph_solver_2d.h).
   double anchor_information = 1e6;
 };
 
