@@ -625,7 +625,8 @@ std::vector<BadCall> badCalls(VariableId n, const SE2& step) {
        Status::InvalidArgument},
       {"negative id", {{-4, SE2()}}, {between(n - 1, -4, step)}, Status::InvalidArgument},
       // A kind that is neither a prior nor a between (an integer cast to FactorKind): its `to`
-      // names a pose (it was taken as a between), and none (it reached PoseGraph2D's assertion).
+      // names a pose (a check that took it for a between would pass it), and names none (one
+      // that let it through would reach PoseGraph2D's assertion).
       {"a factor kind out of range, its to known",
        {next},
        {between(n - 1, n, step), withKind(between(n - 2, n - 1, step), 2)},

@@ -34,10 +34,9 @@ Status check(const Eigen::Matrix<double, N, N>& information) noexcept {
   // Fixed-size LLT: no allocation. It reads only the lower triangle, all of the (exactly
   // symmetric) matrix.
   // LLT fails only on a pivot <= 0; an intermediate overflow (inf - inf) gives a NaN pivot, which
-  // passes that test (finite, indefinite [1e-300 0 1e300; 0 1 0; 1e300 0 1] did). A non-finite
-  // entry anywhere in the factor reaches a later pivot (L(i,i)^2 = A(i,i) - sum_j L(i,j)^2), so
-  // the diagonal is where to look (N values, not N^2: 120 instructions of a Cortex-M7 odometry
-  // step for the whole factor).
+  // passes that test: the finite, indefinite [1e-300 0 1e300; 0 1 0; 1e300 0 1] does. Any
+  // non-finite entry of the factor reaches a later pivot (L(i,i)^2 = A(i,i) - sum_j L(i,j)^2), so
+  // the diagonal is where to look: N values, not N^2, checked for every factor of every update.
   const Eigen::LLT<Eigen::Matrix<double, N, N>> llt(information);
   const bool positive_definite =
       llt.info() == Eigen::Success && llt.matrixLLT().diagonal().allFinite();

@@ -204,10 +204,9 @@ void PoseGraph2D::computeLinearizedBetween(Index f, const SE2& first, const SE2&
   const Vec3 err = betweenErrorSE2(first, second, a_.measurement[f], &j_first, &j_second);
   // The Jacobians' zeros and ones are known (se2_factors.cpp): J_second = [R 0; 0 1] and
   // J_first = [M p; 0 -1] with 2 x 2 blocks R, M. The products skip them: 91 multiplications
-  // instead of the general products' 162 (a full refactorization linearizes every factor whose
-  // points moved; city10000's reorders relinearize up to ~6,000 variables at once). The terms
-  // dropped are exact zeros and the unit factors exact: on the host the runs of all three
-  // datasets gave the general products' bits.
+  // instead of the general products' 162, for every factor whose points moved at a full
+  // refactorization (on a large graph, thousands). The terms dropped are exact zeros and the unit
+  // factors exact, so skipping them changes no rounding.
   const Mat3& omega = a_.information[f];
   const Vec3 o0 = omega.col(0);
   const Vec3 o1 = omega.col(1);

@@ -178,10 +178,9 @@ bool PoseGraphSolver2D::relinearizationDear(Index new_poses, Index relinearized)
 
 // Refactorize every column when this update relinearizes a large share of the variables: that
 // recomputes most columns anyway, at twice the cost of factorizing them afresh (old contributions
-// are subtracted), so a full refactorization is cheaper (city10000: 4,223 variables relinearized
-// took 62 ms in place, a full refactorization of the same graph ~26 ms). It reorders too only if
-// the ordering is no longer fresh: right after an ordering, COLAMD would return about the same
-// fill for its cost (manhattanOlson3500: ~0.4 ms a call, a third of a full refactorization).
+// are subtracted), so a full refactorization is cheaper. It reorders too only if the ordering is
+// no longer fresh (reorder_refresh_growth): right after an ordering, COLAMD would cost its run
+// and return about the same fill.
 bool PoseGraphSolver2D::relinearizesMost(Index relinearized) const {
   const Index committed = cholesky_.columns();
   return committed >= options_.reorder_min_variables &&
@@ -194,8 +193,9 @@ bool PoseGraphSolver2D::relinearizesMost(Index relinearized) const {
 // touches), summed and set against reorder_excess_ratio times the block products of the ordering's
 // own factorization. Both are kept scaled by the factor's size at the ordering (products x blocks)
 // in integers, the budget computed once per ordering: per update only an integer multiply-add and
-// compare, whose cost does not depend on the values (a division, or a conversion of the sum to
-// double in software, made the Cortex-M's odometry steps dearer as the sum grew).
+// compare, whose cost does not depend on the values: a division, or a conversion of the sum to
+// double in software, costs the Cortex-M more as the sum grows, and an odometry step's cost must
+// not drift.
 void PoseGraphSolver2D::noteOrderingWork(bool reordered, std::int64_t block_products) {
   if (reordered) {
     blocks_at_last_order_ = cholesky_.liveBlocks();
@@ -539,12 +539,12 @@ Status PoseGraphSolver2D::factorizeWithRetry(bool full, bool allow_top_reorder, 
   }
 }
 
-// Compacting before an update that would probably not fit saves the attempt that would fail
-// (on the Cortex-M7 stream a loop closure that failed, compacted and ran again cost 1.8x one that
-// did not): a full refactorization stages about the live factor again (a quarter more for a
-// fresh order's fill), a loop closure or a relinearization at most about what the largest such
-// update so far staged. An odometry update (the last columns only) is never compacted ahead: its
-// need is tiny, and its cost must not depend on the pool's fill.
+// Compacting before an update that would probably not fit saves the attempt that would fail (work
+// of nearly the update's own size, thrown away). A full refactorization stages about the live
+// factor again (a quarter more for a fresh order's fill), a loop closure or a relinearization at
+// most about what the largest such update so far staged. An odometry update (the last columns
+// only) is never compacted ahead: its need is tiny, and its cost must not depend on the pool's
+// fill.
 bool PoseGraphSolver2D::likelyOutOfPool(bool full, Index relinearized,
                                         const Index* position_of) const {
   const Index live = cholesky_.liveBlocks();
@@ -727,9 +727,8 @@ void PoseGraphSolver2D::noteRelinearizationCandidates(Index visited) {
     if (!(moved > options_.relinearize_threshold)) continue;
     const Index v = variable_at[k];
     // Only a variable that becomes a candidate makes the relinearization urgent: one that was
-    // waiting already and moved on past the urgent bar waits for the next relinearization. (Urgency
-    // from those too: manhattanOlson3500 172 -> 257 relinearizations and 96 -> 138 full
-    // refactorizations, city10000 244 -> 336, for no better chi2; README "Measured".)
+    // waiting already and moved on past the urgent bar waits for the next relinearization: urgency
+    // from those too would relinearize, and refactorize fully, far more often for no better chi2.
     if (a_.relinearize_flag[v] != 0) continue;
     a_.relinearize_flag[v] = 1;
     a_.relinearize_list[relinearize_count_++] = v;

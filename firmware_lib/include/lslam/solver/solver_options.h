@@ -16,7 +16,8 @@ struct SolverOptions {
   // and, if relinearize_skip > 0, at least every relinearize_skip updates (iSAM2's
   // relinearizeSkip). Waiting lets the candidates of many steps share one recomputation of their
   // etree paths, and keeps the updates in between pure additions, which take the cheap row
-  // update. Measured (README "Measured"): manhattanOlson3500 1.2 s -> 0.25 s at +0.002 % chi2.
+  // update (firmware_lib/README.md, Relinearization). The urgent threshold trades fewer, larger
+  // relinearizations against more linearization error while candidates wait.
   double relinearize_urgent_threshold = 0.1;
   Index relinearize_skip = 0;
   // An update that relinearizes without reordering (an urgent candidate, or relinearize_skip)
@@ -24,51 +25,46 @@ struct SolverOptions {
   // still candidates, for the next reordering (free there) or the next such update. If the update
   // refactorizes every column anyway (most variables relinearized), it takes every candidate.
   // Fewer variables relinearized at once keep more of these updates in place, below
-  // reorder_relinearized_share: manhattanOlson3500's full refactorizations 118 -> 96, city10000's
-  // 236 -> 179; final chi2 +0.0007 -> +0.0012 % and +0.0002 % (README "Measured"). 0: every
-  // candidate.
+  // reorder_relinearized_share: it trades fewer full refactorizations against candidates waiting
+  // longer at stale linearization points. 0: every candidate.
   double relinearize_partial_threshold = 0.05;
   // Partial back-substitution: a subtree of the elimination tree is not re-solved when nothing it
   // depends on moved by more than this (max-norm). 0 gives the exact solution of L^T x = d.
   // 1e-4 (0.1 mm, 1e-4 rad) is a hundredth of relinearize_threshold, the linearization error the
-  // estimate tolerates anyway (iSAM2's wildfire threshold is 1e-3). city10000: 8,970 of ~10,000
-  // variables re-solved per late loop closure at 1e-6, 5,220 at 1e-4; total -8 to -10 %, final
-  // chi2 +0.0001 -> +0.0002 % over the optimum, largest pose difference 0.687 -> 0.694 mm;
-  // manhattanOlson3500 and intel end bit-identical.
+  // estimate tolerates anyway (iSAM2's wildfire threshold is 1e-3). It trades fewer variables
+  // re-solved per loop closure against a solution that may lag the exact one by that much.
   double backsubstitution_tolerance = 1e-4;
   bool partial_backsubstitution = true;
   // Back-substitute at the end of every update (otherwise call solve()).
   bool solve_after_update = true;
-  // Ordering policy (see README "Ordering policy"): the whole graph is reordered with COLAMD (the
-  // newest variable last) when the factor has grown by this factor since the last ordering...
+  // Ordering policy (firmware_lib/README.md, Ordering): the whole graph is reordered with COLAMD
+  // (the newest variable last) when the factor has grown by this factor since the last ordering...
   double reorder_growth = 1.5;
   // ...or when the updates since the last ordering have spent more work on the factor's growth
   // (each update's block products times the growth since the ordering) than this many times the
   // block products of the ordering's factorization: a rent-or-buy rule, so that a graph whose loop
-  // closures run through a large top (city10000) reorders sooner than one whose loop closures are
-  // cheap next to a refactorization (manhattanOlson3500). 0: off.
+  // closures run through a large top reorders sooner than one whose loop closures are cheap next
+  // to a refactorization. 0: off.
   double reorder_excess_ratio = 2.0;
   // ...or when one update recomputed more than this many columns (a long etree path; 0: off).
   Index reorder_path_columns = 600;
   // ...or at once, with this update's factors in the ordering, when an update adds more loop
   // closures (factors reaching back before the newest pose) than this: a burst (a map merge, or a
   // file that lists its loop closures after every pose) fills the current order in far beyond a
-  // fresh one (M3500 in file order: 1,954 at the last step, beyond a 2-million-block pool in the
-  // chain order, 22,464 blocks in a fresh one). Online, the datasets' steps carry at most 6. 0:
-  // off.
+  // fresh order that holds its factors. 32 lies well above an online step's few loop closures
+  // (at most 6 in the datasets), so that only bursts take this path. 0: off.
   Index reorder_burst_loop_closures = 32;
   // ...or when an update relinearizes more than this share of the variables, which refactorizes
   // every column; that reorders too only once the factor has grown by this factor since the last
-  // ordering (a fresh COLAMD order would be about the same). 1.1 since the partial
-  // relinearization (1.05 before: manhattanOlson3500 70 -> 62 orderings, -4.2 % instructions;
-  // README "Measured").
+  // ordering (until then a fresh COLAMD order would be about the same). reorder_refresh_growth
+  // trades fewer orderings against more fill between them.
   double reorder_relinearized_share = 0.05;
   double reorder_refresh_growth = 1.1;
   // ...and so does one whose recomputation in place would take more block products than this many
   // times a full refactorization (estimated from the last one, scaled by the factor's growth). In
   // place, a column costs twice (its old contribution is taken back), and a few hundred variables
-  // relinearized under a stale ordering can reach most of the top: city10000 at 9,980 poses, 482
-  // variables took 5.2 million products (23 ms) where refactorizing all took 2.1 million. 0: off.
+  // relinearized under a stale ordering can reach most of the top, which then costs more than
+  // refactorizing every column. 0: off.
   double relinearize_full_cost_ratio = 1.0;
   // Updates that only add factors (no variable relinearized, no reordering) rotate the added
   // factors' whitened rows into L along their etree paths (IncrementalCholesky::addFactorRows):
@@ -79,22 +75,21 @@ struct SolverOptions {
   // an update holds at least this many existing columns, it is reordered with COLAMD, the
   // variables of the added factors last, and refactorized from its Schur complement (no column
   // outside it changes). Smaller updates (odometry) take the plain update in the current order.
-  // Off by default: measured slower than the plain update on manhattanOlson3500, intel and
-  // city10000 (README "Measured"), because the top it builds is a dense clique of 3x3 blocks.
+  // Off by default: the top it builds is a dense clique of 3x3 blocks, which makes it slower than
+  // the plain update (firmware_lib/README.md, Ordering).
   bool reorder_affected_top = false;
   Index reorder_top_min_columns = 8;
   // A reordering is split over two updates: the update at which the policy above first asks for
   // one runs as usual and then computes the COLAMD ordering (of every variable it leaves
   // committed); the next update applies it, with the variables added since appended last, and
-  // refactorizes. The fresh ordering is then one update old, which costs nothing measurable in
-  // fill, and the dearest update of a long run (the refactorization of the whole factor) no longer
-  // pays for COLAMD too (city10000 at 9,981 poses: 3.2 of 21.5 ms). Off: both in one update.
+  // refactorizes. The fresh ordering is then one update old, which costs little fill, and the
+  // dearest update of a long run (the refactorization of the whole factor) does not also pay for
+  // COLAMD. Off: both in one update.
   bool prepare_ordering_ahead = true;
   // ...once the last full refactorization took at least this many block products: the split
-  // costs an update in the stale order (manhattanOlson3500, whose refactorizations stay below
-  // ~135,000 products, 1 ms here: +5 % total time for -30 % on its worst step). Which reordering
-  // is too dear for one update depends on the platform's step budget (a block product is ~5 ns
-  // on the host, ~100 instructions on the Cortex-M7), so the default splits them all.
+  // trades one more update in the stale order (more total work) for a cheaper worst step. Which
+  // reordering is too dear for one update depends on the platform's step budget (a block product
+  // is ~5 ns on the host, ~100 instructions on the Cortex-M7), so the default splits them all.
   std::int64_t prepare_ordering_min_products = 0;
   // Full refactorizations take each factor's linearization from the graph's cache when neither of
   // its points moved since it was computed (needs a solver built with the cache): a reordering
