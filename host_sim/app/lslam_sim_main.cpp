@@ -9,15 +9,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <fstream>
-#include <functional>
 #include <iostream>
-#include <iterator>
-#include <limits>
 #include <sstream>
+#include <stdexcept>
 #include <string>
-#include <utility>
 #include <vector>
 
 #include "host_sim/batch_solver.h"
@@ -48,27 +44,11 @@ int usage() {
   return 2;
 }
 
-// A usage error in an option's value (exit status 2, as usage()).
-int badValue(const std::string& option, const char* value, const char* expected) {
-  std::fprintf(stderr, "lslam-sim: %s: invalid value %s (expected %s)\n", option.c_str(),
-               jsonString(value).c_str(), expected);
-  return 2;
+// A usage error: its message, then the usage (exit status 2).
+int usageError(const std::string& message) {
+  std::fprintf(stderr, "lslam-sim: %s\n", message.c_str());
+  return usage();
 }
-
-int missingValue(const std::string& option) {
-  std::fprintf(stderr, "lslam-sim: %s needs a value\n", option.c_str());
-  usage();
-  return 2;
-}
-
-struct RunArgs {
-  std::string dataset;
-  StepOrder order = StepOrder::Online;
-  int solve_every = 1;
-  bool json = false;
-  std::string csv, out, report;
-  lslam::SolverOptions solver;
-};
 
 double percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0.0;
@@ -197,128 +177,11 @@ int run(const RunArgs& args) {
   return 0;
 }
 
-int generate(int argc, char** argv) {
-  if (argc < 3) return usage();
-  SyntheticOptions options;
-  for (int i = 3; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--poses" || a == "--seed") {
-      if (i + 1 >= argc) return missingValue(a);
-      const char* v = argv[++i];
-      if (a == "--poses") {
-        const auto n = parseIntegerArg(v, 1, std::numeric_limits<int>::max());
-        if (!n) return badValue(a, v, "an integer >= 1");
-        options.poses = static_cast<int>(*n);
-      } else {
-        const auto n = parseIntegerArg(v, 0, std::numeric_limits<std::uint32_t>::max());
-        if (!n) return badValue(a, v, "an integer in 0..4294967295");
-        options.seed = static_cast<std::uint32_t>(*n);
-      }
-    } else {
-      std::fprintf(stderr, "lslam-sim: unknown option %s\n", jsonString(a).c_str());
-      return usage();
-    }
-  }
-  const SyntheticWorld world = generateManhattanWorld(options);
-  writeG2oFile(argv[2], world.dataset);
-  std::printf("wrote %s: %zu poses, %zu measurements\n", argv[2], world.dataset.vertices.size(),
-              world.dataset.edges.size());
-  return 0;
-}
-
-// The options of `run` after DATASET into args: 0, or the exit status of a usage error (which names
-// the option). Values are parsed strictly: the whole token, reals finite and >= 0.
-int parseRunArgs(int argc, char** argv, RunArgs& args) {
-  lslam::SolverOptions& so = args.solver;
-  struct Flag {
-    const char* name;
-    bool* target;
-    bool value;
-  };
-  const Flag flags[] = {{"--json", &args.json, true},
-                        {"--reorder-top", &so.reorder_affected_top, true},
-                        {"--no-row-updates", &so.row_updates, false},
-                        {"--no-linearization-cache", &so.cache_linearizations, false},
-                        {"--order-in-one-update", &so.prepare_ordering_ahead, false}};
-  // Each option with a value: what to do with it (0, or the status of a bad value).
-  using Apply = std::function<int(const std::string& option, const char* value)>;
-  std::vector<std::pair<std::string, Apply>> value_options = {
-      {"--order",
-       [&](const std::string& a, const char* v) {
-         const std::string order = v;
-         if (order != "online" && order != "file") return badValue(a, v, "online or file");
-         args.order = order == "online" ? StepOrder::Online : StepOrder::File;
-         return 0;
-       }},
-      {"--solve-every",
-       [&](const std::string& a, const char* v) {
-         const auto n = parseIntegerArg(v, 1, std::numeric_limits<int>::max());
-         if (!n) return badValue(a, v, "an integer >= 1");
-         args.solve_every = static_cast<int>(*n);
-         return 0;
-       }},
-      {"--csv", [&](const std::string&, const char* v) { return args.csv = v, 0; }},
-      {"--out", [&](const std::string&, const char* v) { return args.out = v, 0; }},
-      {"--report", [&](const std::string&, const char* v) { return args.report = v, 0; }},
-      {"--prepare-min-products",
-       [&](const std::string& a, const char* v) {
-         const auto n = parseIntegerArg(v, 0, std::numeric_limits<std::int64_t>::max());
-         if (!n) return badValue(a, v, "an integer >= 0");
-         so.prepare_ordering_min_products = *n;
-         return 0;
-       }},
-  };
-  const std::pair<const char*, double*> reals[] = {
-      {"--relinearize-threshold", &so.relinearize_threshold},
-      {"--relinearize-urgent", &so.relinearize_urgent_threshold},
-      {"--relinearize-partial", &so.relinearize_partial_threshold},
-      {"--backsub-tolerance", &so.backsubstitution_tolerance},
-      {"--reorder-growth", &so.reorder_growth},
-      {"--reorder-excess", &so.reorder_excess_ratio},
-      {"--reorder-relinearized", &so.reorder_relinearized_share},
-      {"--reorder-refresh", &so.reorder_refresh_growth},
-      {"--relinearize-full-cost", &so.relinearize_full_cost_ratio},
-  };
-  for (const auto& [name, value] : reals) {
-    value_options.emplace_back(name, [value = value](const std::string& a, const char* v) {
-      const auto x = parseRealArg(v, 0.0, std::numeric_limits<double>::max());
-      if (!x) return badValue(a, v, "a finite number >= 0");
-      *value = *x;
-      return 0;
-    });
-  }
-  const std::pair<const char*, lslam::Index*> indices[] = {
-      {"--relinearize-skip", &so.relinearize_skip},
-      {"--reorder-path", &so.reorder_path_columns},
-      {"--reorder-burst", &so.reorder_burst_loop_closures},
-  };
-  for (const auto& [name, value] : indices) {
-    value_options.emplace_back(name, [value = value](const std::string& a, const char* v) {
-      const auto n = parseIntegerArg(v, 0, std::numeric_limits<lslam::Index>::max());
-      if (!n) return badValue(a, v, "an integer in 0..2147483647");
-      *value = static_cast<lslam::Index>(*n);
-      return 0;
-    });
-  }
-
-  for (int i = 3; i < argc; ++i) {
-    const std::string a = argv[i];
-    const auto flag = std::find_if(std::begin(flags), std::end(flags),
-                                   [&](const Flag& f) { return a == f.name; });
-    if (flag != std::end(flags)) {
-      *flag->target = flag->value;
-      continue;
-    }
-    const auto option = std::find_if(value_options.begin(), value_options.end(),
-                                     [&](const auto& o) { return o.first == a; });
-    if (option == value_options.end()) {
-      std::fprintf(stderr, "lslam-sim: unknown option %s\n", jsonString(a).c_str());
-      return usage();
-    }
-    if (i + 1 >= argc) return missingValue(a);
-    const int status = option->second(a, argv[++i]);
-    if (status != 0) return status;
-  }
+int generate(const GenerateArgs& args) {
+  const SyntheticWorld world = generateManhattanWorld(args.options);
+  writeG2oFile(args.out, world.dataset);
+  std::printf("wrote %s: %zu poses, %zu measurements\n", args.out.c_str(),
+              world.dataset.vertices.size(), world.dataset.edges.size());
   return 0;
 }
 
@@ -327,13 +190,19 @@ int parseRunArgs(int argc, char** argv, RunArgs& args) {
 int main(int argc, char** argv) {
   if (argc < 2) return usage();
   try {
-    if (std::strcmp(argv[1], "generate") == 0) return generate(argc, argv);
-    if (std::strcmp(argv[1], "run") != 0 || argc < 3) return usage();
-    RunArgs args;
-    args.dataset = argv[2];
-    const int status = parseRunArgs(argc, argv, args);
-    if (status != 0) return status;
-    return run(args);
+    const std::string command = argv[1];
+    const std::vector<std::string> rest(argv + 2, argv + argc);
+    if (command == "run") {
+      RunArgs args;
+      if (const auto error = parseRunArgs(rest, args)) return usageError(*error);
+      return run(args);
+    }
+    if (command == "generate") {
+      GenerateArgs args;
+      if (const auto error = parseGenerateArgs(rest, args)) return usageError(*error);
+      return generate(args);
+    }
+    return usageError("unknown command " + jsonString(command));
   } catch (const DatasetError& e) {
     std::fprintf(stderr, "lslam-sim: %s\n", e.what());
     return 1;

@@ -1,8 +1,13 @@
 #include "host_sim/cli_args.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstddef>
+#include <functional>
+#include <limits>
 #include <system_error>
+#include <utility>
 
 namespace lslam::sim {
 
@@ -65,6 +70,145 @@ std::string jsonString(std::string_view s) {
     }
   }
   return out + "\"";
+}
+
+namespace {
+
+using Error = std::optional<std::string>;
+
+Error invalidValue(const std::string& option, const std::string& value, const char* expected) {
+  return option + ": invalid value " + jsonString(value) + " (expected " + expected + ")";
+}
+
+// One option of a command: its name, whether it takes a value, and what to do with it (nullopt, or
+// the message of an invalid value). A flag's action gets an empty value.
+struct Option {
+  std::string name;
+  bool takes_value;
+  std::function<Error(const std::string& option, const std::string& value)> apply;
+};
+
+Option flag(const char* name, bool& target, bool value) {
+  return {name, false, [&target, value](const std::string&, const std::string&) -> Error {
+            target = value;
+            return std::nullopt;
+          }};
+}
+
+Option path(const char* name, std::string& target) {
+  return {name, true, [&target](const std::string& option, const std::string& value) -> Error {
+            if (value.empty()) return invalidValue(option, value, "a file path");
+            target = value;
+            return std::nullopt;
+          }};
+}
+
+template <typename Int>
+Option integer(const char* name, Int& target, std::int64_t min, const char* expected) {
+  return {name, true,
+          [&target, min, expected](const std::string& option, const std::string& value) -> Error {
+            const auto n = parseIntegerArg(value, min, std::numeric_limits<Int>::max());
+            if (!n) return invalidValue(option, value, expected);
+            target = static_cast<Int>(*n);
+            return std::nullopt;
+          }};
+}
+
+Option real(const char* name, double& target) {
+  return {name, true, [&target](const std::string& option, const std::string& value) -> Error {
+            const auto x = parseRealArg(value, 0.0, std::numeric_limits<double>::max());
+            if (!x) return invalidValue(option, value, "a finite number >= 0");
+            target = *x;
+            return std::nullopt;
+          }};
+}
+
+// The arguments of one command: options from `options`, each at most once, and exactly one
+// positional argument (named `positional_name` in messages) into `positional`.
+Error parseCommand(const std::vector<std::string>& argv, const std::vector<Option>& options,
+                   const char* positional_name, std::string& positional) {
+  std::vector<bool> seen(options.size(), false);
+  bool have_positional = false;
+  for (std::size_t i = 0; i < argv.size(); ++i) {
+    const std::string& a = argv[i];
+    if (a.empty() || a[0] != '-') {
+      if (have_positional) {
+        return "unexpected argument " + jsonString(a) + " (" + positional_name + " is " +
+               jsonString(positional) + ")";
+      }
+      if (a.empty())
+        return std::string("invalid ") + positional_name + " \"\" (expected a file path)";
+      positional = a;
+      have_positional = true;
+      continue;
+    }
+    const auto option =
+        std::find_if(options.begin(), options.end(), [&](const Option& o) { return o.name == a; });
+    if (option == options.end()) return "unknown option " + jsonString(a);
+    const auto index = static_cast<std::size_t>(option - options.begin());
+    if (seen[index]) return a + " given twice";
+    seen[index] = true;
+    if (!option->takes_value) {
+      option->apply(a, std::string());
+      continue;
+    }
+    if (i + 1 >= argv.size()) return a + " needs a value";
+    // A value never starts with "--": that is the next option, and this one's value is missing.
+    if (argv[i + 1].rfind("--", 0) == 0) {
+      return a + " needs a value (found the option " + jsonString(argv[i + 1]) + ")";
+    }
+    if (Error error = option->apply(a, argv[++i])) return error;
+  }
+  if (!have_positional) return std::string("missing ") + positional_name;
+  return std::nullopt;
+}
+
+}  // namespace
+
+std::optional<std::string> parseRunArgs(const std::vector<std::string>& argv, RunArgs& args) {
+  SolverOptions& so = args.solver;
+  const std::vector<Option> options = {
+      flag("--json", args.json, true),
+      flag("--reorder-top", so.reorder_affected_top, true),
+      flag("--no-row-updates", so.row_updates, false),
+      flag("--no-linearization-cache", so.cache_linearizations, false),
+      flag("--order-in-one-update", so.prepare_ordering_ahead, false),
+      {"--order", true,
+       [&](const std::string& option, const std::string& value) -> Error {
+         if (value != "online" && value != "file") {
+           return invalidValue(option, value, "online or file");
+         }
+         args.order = value == "online" ? StepOrder::Online : StepOrder::File;
+         return std::nullopt;
+       }},
+      integer("--solve-every", args.solve_every, 1, "an integer >= 1"),
+      path("--csv", args.csv),
+      path("--out", args.out),
+      path("--report", args.report),
+      integer("--prepare-min-products", so.prepare_ordering_min_products, 0, "an integer >= 0"),
+      real("--relinearize-threshold", so.relinearize_threshold),
+      real("--relinearize-urgent", so.relinearize_urgent_threshold),
+      real("--relinearize-partial", so.relinearize_partial_threshold),
+      real("--backsub-tolerance", so.backsubstitution_tolerance),
+      real("--reorder-growth", so.reorder_growth),
+      real("--reorder-excess", so.reorder_excess_ratio),
+      real("--reorder-relinearized", so.reorder_relinearized_share),
+      real("--reorder-refresh", so.reorder_refresh_growth),
+      real("--relinearize-full-cost", so.relinearize_full_cost_ratio),
+      integer("--relinearize-skip", so.relinearize_skip, 0, "an integer in 0..2147483647"),
+      integer("--reorder-path", so.reorder_path_columns, 0, "an integer in 0..2147483647"),
+      integer("--reorder-burst", so.reorder_burst_loop_closures, 0, "an integer in 0..2147483647"),
+  };
+  return parseCommand(argv, options, "DATASET", args.dataset);
+}
+
+std::optional<std::string> parseGenerateArgs(const std::vector<std::string>& argv,
+                                             GenerateArgs& args) {
+  const std::vector<Option> options = {
+      integer("--poses", args.options.poses, 1, "an integer >= 1"),
+      integer("--seed", args.options.seed, 0, "an integer in 0..4294967295"),
+  };
+  return parseCommand(argv, options, "OUT.g2o", args.out);
 }
 
 }  // namespace lslam::sim

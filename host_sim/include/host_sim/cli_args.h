@@ -1,10 +1,15 @@
 #pragma once
-// Helpers of the host command lines (lslam-sim): strict parsing of option values and JSON string
-// literals. Host-only.
+// The command lines of the host tools (lslam-sim): the arguments of `run` and `generate`, strict
+// parsing of option values, and JSON string literals. Host-only.
 #include <cstdint>
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
+
+#include "host_sim/steps.h"
+#include "host_sim/synthetic.h"
+#include "lslam/solver/solver_options.h"
 
 namespace lslam::sim {
 
@@ -22,5 +27,32 @@ std::optional<double> parseRealArg(std::string_view token, double min, double ma
 // U+0000..U+001F as \b \f \n \r \t or \u00XX, and DEL as \u007f. Other bytes are copied as they
 // are (a UTF-8 path stays UTF-8).
 std::string jsonString(std::string_view s);
+
+// `lslam-sim run DATASET [options]`.
+struct RunArgs {
+  std::string dataset;
+  StepOrder order = StepOrder::Online;
+  int solve_every = 1;
+  bool json = false;
+  std::string csv, out, report;  // empty: not written
+  SolverOptions solver;
+};
+
+// `lslam-sim generate OUT.g2o [--poses N] [--seed S]`.
+struct GenerateArgs {
+  std::string out;
+  SyntheticOptions options;
+};
+
+// The arguments after the word `run` (or `generate`) into args: nullopt, or the message of a usage
+// error (lslam-sim prints it and exits with status 2), which names the offending argument. The one
+// positional argument (DATASET, OUT.g2o) may stand anywhere among the options. Usage errors: an
+// unknown option (any argument starting with '-' that is no option), an option without its value
+// (last on the line, or followed by an argument starting with "--"), an invalid value (parsed
+// strictly: the whole token, numbers in range, paths not empty), an option given twice, a second
+// positional argument, an empty one or none.
+std::optional<std::string> parseRunArgs(const std::vector<std::string>& argv, RunArgs& args);
+std::optional<std::string> parseGenerateArgs(const std::vector<std::string>& argv,
+                                             GenerateArgs& args);
 
 }  // namespace lslam::sim
