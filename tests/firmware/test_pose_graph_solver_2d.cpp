@@ -1514,6 +1514,71 @@ TEST_CASE(
   }
 }
 
+TEST_CASE(
+    "the first prior must tie the anchored map to it: a prior the map cannot reach is "
+    "UnconstrainedVariable and changes nothing; one reached through a new pose takes the anchor "
+    "out") {
+  for (std::uint32_t seed = 180; seed < 184; ++seed) {
+    CAPTURE(seed);
+    const PriorWorld w = priorWorld(60, seed, 1000, 1);  // no priors in the world itself
+    SolverOptions options;
+    options.reorder_min_variables = 20;
+    auto solver = std::make_unique<SmallSolver>(options);
+    Estimate2D initial;
+    const std::size_t fed = 25 + seed % 10;
+    for (std::size_t s = 0; s < fed; ++s)
+      REQUIRE(feedPriorStep(*solver, w, s, initial) == Status::Ok);
+    const VariableId newest = w.steps[fed - 1].new_pose;
+    FactorInput prior;
+    prior.kind = FactorKind::PriorSE2;
+    prior.from = 5000;
+    prior.measurement = SE2(1.0, 2.0, 0.3);
+    prior.information = Vec3(4.0, 4.0, 100.0).asDiagonal();
+    const PoseInput island{5000, SE2(1.0, 2.0, 0.3)};
+    // A pose held by its own prior alone: the map would lose its anchor and float free.
+    const Snapshot before = snapshot(*solver);
+    CHECK(solver->update(&island, 1, &prior, 1) == Status::UnconstrainedVariable);
+    CHECK(snapshot(*solver) == before);
+    // The same pose seen from the map's newest pose: the map is held through it.
+    FactorInput seen;
+    seen.kind = FactorKind::BetweenSE2;
+    seen.from = newest;
+    seen.to = 5000;
+    seen.measurement = SE2(0.5, -0.2, 0.1);
+    seen.information = Vec3(100.0, 100.0, 400.0).asDiagonal();
+    const FactorInput both[2] = {prior, seen};
+    REQUIRE(solver->update(&island, 1, both, 2) == Status::Ok);
+    REQUIRE(solver->optimize(50, 1e-10) == Status::Ok);
+    // The reference: the map's edges, the prior as an edge from the fixed origin, and the edge to
+    // the new pose; no anchor.
+    Dataset2D reference;
+    for (const Edge2D& e : w.d.edges)
+      if (initial.count(e.from) != 0 && initial.count(e.to) != 0) reference.edges.push_back(e);
+    Edge2D gps;
+    gps.from = kOrigin;
+    gps.to = 5000;
+    gps.measurement = Pose2D{1.0, 2.0, 0.3};
+    gps.information = prior.information;
+    reference.edges.push_back(gps);
+    Edge2D link;
+    link.from = newest;
+    link.to = 5000;
+    link.measurement = Pose2D{0.5, -0.2, 0.1};
+    link.information = seen.information;
+    reference.edges.push_back(link);
+    initial[5000] = Pose2D{1.0, 2.0, 0.3};
+    initial[kOrigin] = Pose2D{};
+    BatchOptions batch_options;
+    batch_options.fixed = {kOrigin};
+    const BatchResult batch = solveBatch2D(reference, initial, batch_options);
+    REQUIRE(batch.converged);
+    Estimate2D inc = estimateOf(*solver);
+    inc[kOrigin] = Pose2D{};
+    CHECK(maxPositionDiff(inc, batch.poses) < 1e-6);
+    CHECK(solver->chi2() == doctest::Approx(batch.chi2).epsilon(1e-8));
+  }
+}
+
 namespace {
 
 // `symmetric` with an antisymmetric part added between x and theta: the largest checkInformation

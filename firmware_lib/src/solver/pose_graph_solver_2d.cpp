@@ -91,51 +91,63 @@ Status PoseGraphSolver2D::validate(const PoseInput* poses, Index num_poses,
   if (status == Status::Ok && anchor && num_factors + 1 > graph_.maxFactors()) {
     status = Status::CapacityExhausted;
   }
-  if (status == Status::Ok) status = checkAnchored(num_poses, factors, num_factors, anchor);
+  if (status == Status::Ok) {
+    status = checkAnchored(num_poses, factors, num_factors, anchor, dropsAnchor(prior_count));
+  }
   if (status != Status::Ok) forgetNewIds(poses, inserted);
   return status;
 }
 
 // Every added pose must be tied to the existing graph (or to a prior) through this call's factors;
 // a pose floating free would make Lambda singular, and rounding could hide that from the pivots.
-// `anchor`: the solver anchors the first added pose (update() adds a prior).
+// `anchor`: the solver anchors the first added pose (update() adds a prior). `drop_anchor`: this
+// call takes the anchor out, so the committed graph (one connected piece, held by the anchor
+// alone) must itself be tied to one of this call's priors: by a prior on a committed pose, or
+// through this call's between factors to a new pose that is.
 Status PoseGraphSolver2D::checkAnchored(Index num_poses, const FactorInput* factors,
-                                        Index num_factors, bool anchor) const {
+                                        Index num_factors, bool anchor, bool drop_anchor) const {
   const Index first_new = graph_.variables();
-  Index anchored = 0;
-  bool progress = true;
-  // a_.visited is free scratch outside solve(): a flag per added pose. Few poses per call: the
-  // repeated sweeps stay small.
+  // a_.visited is free scratch outside solve(): a flag per added pose, and at [num_poses] one for
+  // the committed graph as a whole (index `committed`). Few poses per call: the repeated sweeps
+  // stay small.
   Index* is_anchored = a_.visited;
+  const Index committed = num_poses;
+  const auto node = [&](VariableId id) {
+    const Index v = ids_.find(id) - first_new;
+    return v < 0 ? committed : v;
+  };
   for (Index i = 0; i < num_poses; ++i) is_anchored[i] = 0;
+  // (An empty graph has no committed node; then num_poses may fill the whole array.)
+  if (first_new > 0) is_anchored[committed] = drop_anchor ? 0 : 1;
+  Index anchored = 0;
+  const Index required = num_poses + (drop_anchor ? 1 : 0);
   if (anchor) {
     is_anchored[0] = 1;
     anchored = 1;
   }
-  while (progress && anchored < num_poses) {
+  bool progress = true;
+  while (progress && anchored < required) {
     progress = false;
     for (Index f = 0; f < num_factors; ++f) {
       const FactorInput& in = factors[f];
-      const Index a = ids_.find(in.from) - first_new;
+      const Index a = node(in.from);
       if (factorArity(in.kind) == 1) {
-        if (a >= 0 && is_anchored[a] == 0) {
+        if (is_anchored[a] == 0) {
           is_anchored[a] = 1;
           ++anchored;
           progress = true;
         }
         continue;
       }
-      const Index b = ids_.find(in.to) - first_new;
-      const bool a_known = a < 0 || is_anchored[a] != 0;
-      const bool b_known = b < 0 || is_anchored[b] != 0;
-      if (a_known != b_known) {
-        is_anchored[a_known ? b : a] = 1;
+      const Index b = node(in.to);
+      if ((is_anchored[a] != 0) != (is_anchored[b] != 0)) {
+        is_anchored[is_anchored[a] != 0 ? b : a] = 1;
         ++anchored;
         progress = true;
       }
     }
   }
-  return anchored == num_poses ? Status::Ok : Status::UnconstrainedVariable;
+  return anchored == required ? Status::Ok : Status::UnconstrainedVariable;
 }
 
 void PoseGraphSolver2D::forgetNewIds(const PoseInput* poses, Index num_poses) {
@@ -284,7 +296,7 @@ Status PoseGraphSolver2D::update(const PoseInput* poses, Index num_poses,
   // The gauge (see the class comment): the first update anchors its first pose unless it brings a
   // prior of the caller's; the first caller prior after that takes the anchor out.
   const bool anchor = anchorsFirstPose(num_poses, priors);
-  const bool drop_anchor = anchor_factor_ != kNoIndex && priors > 0;
+  const bool drop_anchor = dropsAnchor(priors);
   graph_.beginUpdate();
   first_new_factor_ = graph_.factors();
   for (Index i = 0; i < num_poses; ++i) graph_.addVariable(poses[i].initial);

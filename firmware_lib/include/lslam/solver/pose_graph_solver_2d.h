@@ -19,7 +19,9 @@
 //  - a first update without one anchors its first pose, and the anchor stays exactly as long as
 //    no caller prior has come: the update that brings the first one takes the anchor out of the
 //    problem (it keeps its factor slot with zero information) and, since a factor cannot be taken
-//    out of L in place, reorders and refactorizes every column, once;
+//    out of L in place, reorders and refactorizes every column, once. That update must tie the
+//    map to its priors (a prior on a mapped pose, or between factors from a new pose with a
+//    prior to the map); otherwise it is UnconstrainedVariable, as the map would float free;
 //  - chi2() sums the caller's factors only, never the anchor.
 // The optimum is then always that of the caller's factors alone: with priors, theirs; without,
 // the between factors' optimum in the gauge of the first pose (which the anchor, at zero error
@@ -123,12 +125,14 @@ class PoseGraphSolver2D {
   // Also counts the caller's priors among the factors (valid or not: read only on Ok).
   Status validate(const PoseInput* poses, Index num_poses, const FactorInput* factors,
                   Index num_factors, Index* priors);
-  Status checkAnchored(Index num_poses, const FactorInput* factors, Index num_factors,
-                       bool anchor) const;
+  Status checkAnchored(Index num_poses, const FactorInput* factors, Index num_factors, bool anchor,
+                       bool drop_anchor) const;
   // Whether an update of num_poses poses and `priors` caller priors gets the anchor (the gauge).
   bool anchorsFirstPose(Index num_poses, Index priors) const {
     return graph_.variables() == 0 && num_poses > 0 && priors == 0;
   }
+  // Whether an update with `priors` caller priors takes the anchor out (the caller's first prior).
+  bool dropsAnchor(Index priors) const { return anchor_factor_ != kNoIndex && priors > 0; }
   void forgetNewIds(const PoseInput* poses, Index num_poses);
   bool wantsReorder() const;
   bool relinearizesMost(Index relinearized) const;
