@@ -4,6 +4,7 @@
 #include <cmath>
 #include <random>
 
+#include "lie_3d_test_util.h"
 #include "lslam/factors/se3_factors.h"
 #include "lslam/geometry/se3.h"
 #include "numerical_diff.h"
@@ -26,44 +27,6 @@ constexpr int kCases = 900;
 constexpr unsigned kSeed = 20261126u;
 
 // ---- References that do not call the factors, SE3's or SO3's operations ---------------------
-
-Mat3 hat3(const Vec3& v) {
-  Mat3 m;
-  m << 0.0, -v(2), v(1), v(2), 0.0, -v(0), -v(1), v(0), 0.0;
-  return m;
-}
-
-// R = (w^2 - |v|^2) I + 2 v v^T + 2 w [v]x, from the stored quaternion alone.
-Mat4 toMatrix4(const SE3& x) {
-  const Quat& q = x.rotation().quaternion();
-  const Vec3 v = q.vec();
-  Mat4 m = Mat4::Identity();
-  m.topLeftCorner<3, 3>() = (q.w() * q.w() - v.squaredNorm()) * Mat3::Identity() +
-                            2.0 * v * v.transpose() + 2.0 * q.w() * hat3(v);
-  m.topRightCorner<3, 1>() = x.translation();
-  return m;
-}
-
-SE3 fromMatrix4(const Mat4& m) {
-  const Mat3 r = m.topLeftCorner<3, 3>();
-  return SE3(SO3(Quat(r).normalized()), m.topRightCorner<3, 1>());
-}
-
-Mat4 inverseMatrix(const Mat4& m) {
-  Mat4 inv = Mat4::Identity();
-  const Mat3 rt = m.topLeftCorner<3, 3>().transpose();
-  inv.topLeftCorner<3, 3>() = rt;
-  inv.topRightCorner<3, 1>() = -rt * m.topRightCorner<3, 1>();
-  return inv;
-}
-
-// Exp of tau = (rho, phi) by the general matrix exponential.
-Mat4 expMatrix6(const Vec6& tau) {
-  Mat4 m = Mat4::Zero();
-  m.topLeftCorner<3, 3>() = hat3(tau.tail<3>());
-  m.topRightCorner<3, 1>() = tau.head<3>();
-  return m.exp();
-}
 
 // The quaternion of a homogeneous matrix's rotation, by Eigen's matrix-to-quaternion conversion,
 // with w >= 0.
@@ -97,49 +60,14 @@ double chi2(const Vec6& e, const Mat6& information) {
   return e.dot(information * e);
 }
 
-// ---- Central differences over right perturbations -------------------------------------------
-
-template <class F>
-Mat6 centralJacobian(F f, const SE3& x, double h = kStep) {
-  Mat6 jacobian;
-  for (int k = 0; k < 6; ++k) {
-    Vec6 d = Vec6::Zero();
-    d(k) = h;
-    const SE3 plus = fromMatrix4(toMatrix4(x) * expMatrix6(d));
-    const SE3 minus = fromMatrix4(toMatrix4(x) * expMatrix6(-d));
-    jacobian.col(k) = (f(plus) - f(minus)) / (2.0 * h);
-  }
-  return jacobian;
-}
-
 // ---- Random cases ---------------------------------------------------------------------------
-
-Vec3 randomAxis(std::mt19937& rng) {
-  std::normal_distribution<double> normal(0.0, 1.0);
-  Vec3 v;
-  do {
-    const double a = normal(rng);
-    const double b = normal(rng);
-    const double c = normal(rng);
-    v = Vec3(a, b, c);
-  } while (v.norm() < 1e-3);
-  return v.normalized();
-}
-
-Vec3 randomVector(std::mt19937& rng, double half_width) {
-  std::uniform_real_distribution<double> coordinate(-half_width, half_width);
-  const double x = coordinate(rng);
-  const double y = coordinate(rng);
-  const double z = coordinate(rng);
-  return Vec3(x, y, z);
-}
 
 // A pose with a random translation, the rotation by `angle` about a random axis built by Eigen's
 // angle-axis conversion, and the stored quaternion's sign chosen at random (w < 0 is allowed).
 SE3 poseWithAngle(std::mt19937& rng, double angle) {
   const Vec3 t = randomVector(rng, 10.0);
   const Vec3 axis = randomAxis(rng);
-  Quat q = Quat(Eigen::AngleAxisd(angle, axis)).normalized();
+  Quat q = angleAxisRotation(angle, axis).quaternion();
   if (std::bernoulli_distribution(0.5)(rng)) q.coeffs() = -q.coeffs();
   return SE3(SO3(q), t);
 }
@@ -176,7 +104,8 @@ double residualAngle(std::mt19937& rng, int case_index) {
 
 // A measurement z with z^-1 xi^-1 xj = d for a chosen residual d.
 SE3 measurementFor(const SE3& xi, const SE3& xj, const SE3& d) {
-  return fromMatrix4(inverseMatrix(toMatrix4(xi)) * toMatrix4(xj) * inverseMatrix(toMatrix4(d)));
+  return poseFromMatrix(inverseMatrix(poseMatrix(xi)) * poseMatrix(xj) *
+                        inverseMatrix(poseMatrix(d)));
 }
 
 Mat6 randomInformation(std::mt19937& rng) {
@@ -188,8 +117,8 @@ Mat6 randomInformation(std::mt19937& rng) {
 
 // The canonical |w| of the residual, from matrices.
 double residualW(const SE3& xi, const SE3& xj, const SE3& z) {
-  return canonicalQuaternion(inverseMatrix(toMatrix4(z)) * inverseMatrix(toMatrix4(xi)) *
-                             toMatrix4(xj))
+  return canonicalQuaternion(inverseMatrix(poseMatrix(z)) * inverseMatrix(poseMatrix(xi)) *
+                             poseMatrix(xj))
       .w();
 }
 
@@ -217,12 +146,12 @@ TEST_CASE("betweenErrorSE3 is the g2o error of z^-1 * xi^-1 * xj") {
     CAPTURE(i);
     const Vec6 e = betweenErrorSE3(xi, xj, z);
     const Mat4 residual =
-        inverseMatrix(toMatrix4(z)) * inverseMatrix(toMatrix4(xi)) * toMatrix4(xj);
+        inverseMatrix(poseMatrix(z)) * inverseMatrix(poseMatrix(xi)) * poseMatrix(xj);
     CHECK(errorDistance(e, residual) < 1e-12);
     CHECK(e.tail<3>().norm() <= 1.0 + 1e-15);
 
     // A measurement that agrees with the poses leaves no error.
-    const SE3 exact = fromMatrix4(inverseMatrix(toMatrix4(xi)) * toMatrix4(xj));
+    const SE3 exact = poseFromMatrix(inverseMatrix(poseMatrix(xi)) * poseMatrix(xj));
     CHECK(betweenErrorSE3(xi, xj, exact).cwiseAbs().maxCoeff() < 1e-12);
   }
 }
@@ -237,7 +166,7 @@ TEST_CASE("priorErrorSE3 is the g2o error of z^-1 * x") {
                       : measurementFor(identity, x, poseWithAngle(rng, residualAngle(rng, i)));
     CAPTURE(i);
     const Vec6 e = priorErrorSE3(x, z);
-    CHECK(errorDistance(e, inverseMatrix(toMatrix4(z)) * toMatrix4(x)) < 1e-12);
+    CHECK(errorDistance(e, inverseMatrix(poseMatrix(z)) * poseMatrix(x)) < 1e-12);
     CHECK(priorErrorSE3(x, x).cwiseAbs().maxCoeff() < 1e-15);
     // A prior is a between factor from the origin.
     CHECK(maxAbsDiff(e, betweenErrorSE3(identity, x, z)) < 1e-13);
@@ -294,8 +223,8 @@ TEST_CASE("the between error and chi2 are invariant under a change of the world 
     const Mat6 information = randomInformation(rng);
     if (residualW(xi, xj, z) < 1e-9) continue;  // the sign of v is rounding there
     CAPTURE(i);
-    const SE3 gxi = fromMatrix4(toMatrix4(g) * toMatrix4(xi));
-    const SE3 gxj = fromMatrix4(toMatrix4(g) * toMatrix4(xj));
+    const SE3 gxi = poseFromMatrix(poseMatrix(g) * poseMatrix(xi));
+    const SE3 gxj = poseFromMatrix(poseMatrix(g) * poseMatrix(xj));
     const Vec6 e = betweenErrorSE3(xi, xj, z);
     const Vec6 moved = betweenErrorSE3(gxi, gxj, z);
     CHECK(maxAbsDiff(moved, e) < 1e-11);
