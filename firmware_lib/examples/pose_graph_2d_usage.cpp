@@ -18,7 +18,7 @@ Status addStep(VariableId id, const SE2& odometry, bool loop) {
   const PoseInput pose{id, previous.compose(odometry)};  // initial guess: dead reckoning
   const FactorInput factors[2] = {{FactorKind::BetweenSE2, id - 1, id, odometry, information},
                                   {FactorKind::BetweenSE2, id, 0, SE2(), information}};
-  return solver.update(&pose, 1, factors, loop ? 2 : 1);  // solves for the new estimate too
+  return solver.update(&pose, 1, factors, loop ? 2 : 1);  // also back-substitutes
 }
 }  // namespace
 

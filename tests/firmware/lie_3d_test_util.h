@@ -208,9 +208,3 @@ inline SO3 angleAxisRotation(double angle, const Vec3& axis) {
 }
 
 }  // namespace lslam::test
-
-#define CHECK_JACOBIAN(analytic, numeric)                             \
-  do {                                                                \
-    INFO("analytic:\n" << (analytic) << "\nnumeric:\n" << (numeric)); \
-    CHECK(jacobianNear((analytic), (numeric)));                       \
-  } while (false)

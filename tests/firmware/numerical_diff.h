@@ -2,6 +2,8 @@
 // Test-only references for SE(2) code: central finite differences, poses as 3x3 homogeneous
 // matrices, and Exp/Log by Eigen's general matrix exponential and logarithm. None of it calls
 // SE2's group operations, so a test that compares SE2 against these can actually fail.
+#include <doctest/doctest.h>
+
 #include "lslam/geometry/se2.h"
 
 #include <Eigen/Core>
@@ -189,3 +191,10 @@ inline Vec3 randomTangent(std::mt19937& rng, int case_index) {
 }
 
 }  // namespace lslam::test
+
+// A Jacobian check that prints both matrices when they differ.
+#define CHECK_JACOBIAN(analytic, numeric)                             \
+  do {                                                                \
+    INFO("analytic:\n" << (analytic) << "\nnumeric:\n" << (numeric)); \
+    CHECK(jacobianNear((analytic), (numeric)));                       \
+  } while (false)

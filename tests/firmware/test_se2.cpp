@@ -37,12 +37,6 @@ Vec2 randomPoint(std::mt19937& rng) {
 
 }  // namespace
 
-#define CHECK_JACOBIAN(analytic, numeric)                             \
-  do {                                                                \
-    INFO("analytic:\n" << (analytic) << "\nnumeric:\n" << (numeric)); \
-    CHECK(jacobianNear((analytic), (numeric)));                       \
-  } while (false)
-
 TEST_CASE("construction wraps theta; the default pose is the identity") {
   const SE2 identity;
   CHECK(identity.x() == 0.0);

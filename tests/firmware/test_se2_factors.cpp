@@ -51,12 +51,6 @@ bool nearCut(double angle) {
 
 }  // namespace
 
-#define CHECK_JACOBIAN(analytic, numeric)                             \
-  do {                                                                \
-    INFO("analytic:\n" << (analytic) << "\nnumeric:\n" << (numeric)); \
-    CHECK(jacobianNear((analytic), (numeric)));                       \
-  } while (false)
-
 TEST_CASE("betweenErrorSE2 is the g2o error of z^-1 * xi^-1 * xj") {
   std::mt19937 rng(kSeed);
   for (int i = 0; i < kCases; ++i) {

@@ -130,12 +130,6 @@ SE3 negatedQuaternion(const SE3& x) {
 
 }  // namespace
 
-#define CHECK_JACOBIAN(analytic, numeric)                             \
-  do {                                                                \
-    INFO("analytic:\n" << (analytic) << "\nnumeric:\n" << (numeric)); \
-    CHECK(jacobianNear((analytic), (numeric)));                       \
-  } while (false)
-
 TEST_CASE("betweenErrorSE3 is the g2o error of z^-1 * xi^-1 * xj") {
   std::mt19937 rng(kSeed);
   for (int i = 0; i < kCases; ++i) {

@@ -41,30 +41,30 @@ void PoseGraph2D::link(Index variable, Index factor) {
   a_.first_entry[variable] = e;
 }
 
-Index PoseGraph2D::addPrior(Index variable, const SE2& z, const Mat3& information) {
+// The factor's record, its information stored symmetric; the caller links it to its variables.
+Index PoseGraph2D::appendFactor(FactorKind kind, Index first, Index second, const SE2& z,
+                                const Mat3& information) {
   LSLAM_ASSERT(in_update_ && num_factors_ < a_.max_factors);
-  LSLAM_ASSERT(variable >= 0 && variable < num_variables_);
   const Index f = num_factors_++;
-  a_.kind[f] = FactorKind::PriorSE2;
-  a_.first_variable[f] = variable;
-  a_.second_variable[f] = kNoIndex;
+  a_.kind[f] = kind;
+  a_.first_variable[f] = first;
+  a_.second_variable[f] = second;
   a_.measurement[f] = z;
   a_.information[f] = information;
   symmetrize(a_.information[f]);
+  return f;
+}
+
+Index PoseGraph2D::addPrior(Index variable, const SE2& z, const Mat3& information) {
+  LSLAM_ASSERT(variable >= 0 && variable < num_variables_);
+  const Index f = appendFactor(FactorKind::PriorSE2, variable, kNoIndex, z, information);
   link(variable, f);
   return f;
 }
 
 Index PoseGraph2D::addBetween(Index from, Index to, const SE2& z, const Mat3& information) {
-  LSLAM_ASSERT(in_update_ && num_factors_ < a_.max_factors);
   LSLAM_ASSERT(from >= 0 && from < num_variables_ && to >= 0 && to < num_variables_ && from != to);
-  const Index f = num_factors_++;
-  a_.kind[f] = FactorKind::BetweenSE2;
-  a_.first_variable[f] = from;
-  a_.second_variable[f] = to;
-  a_.measurement[f] = z;
-  a_.information[f] = information;
-  symmetrize(a_.information[f]);
+  const Index f = appendFactor(FactorKind::BetweenSE2, from, to, z, information);
   if (cache_) a_.linearized_epoch[f] = 0;  // nothing cached (may hold a rolled-back factor's)
   link(from, f);
   link(to, f);

@@ -2,32 +2,20 @@
 
 #include <cmath>
 
+#include "angle_coefficients.h"
 #include "lslam/geometry/sin_cos.h"
 
 namespace lslam {
 namespace {
 
-// Below this angle the coefficients whose closed forms are merely 0/0 at w = 0 (sin(w)/w,
-// (w/2)cot(w/2)) switch to two-term Taylor series; the dropped w^4 terms are < 1e-17 here.
-constexpr double kTinyAngle = 1e-4;
+using detail::kTinyAngle;
+using detail::sinc;
+using detail::versineOverSquare;
 
 // (w - sin w)/w^2 and (w/2)cot(w/2) - 1 cancel catastrophically near w = 0: the direct forms
 // lose about 2*log10(1/w) digits. Below this angle they use five-term Taylor series instead.
 // 0.3 balances the two errors: at the switch both are below 4e-14 relative.
 constexpr double kSeriesAngle = 0.3;
-
-// sin(w)/w, given sin_w = sin(w) (the callers need sin(w) for more than one coefficient).
-double sinc(double w, double sin_w) noexcept {
-  if (std::abs(w) < kTinyAngle) return 1.0 - w * w / 6.0;
-  return sin_w / w;
-}
-
-// (1 - cos w)/w^2, formed as (1/2) sinc(w/2)^2: the direct 1 - cos w cancels for small w.
-double versineOverSquare(double w) noexcept {
-  const double h = 0.5 * w;
-  const double s = sinc(h, sinCos(h).sin);
-  return 0.5 * s * s;
-}
 
 // (w - sin w)/w^2, given sin_w = sin(w).
 double sineDefectOverSquare(double w, double sin_w) noexcept {

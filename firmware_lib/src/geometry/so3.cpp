@@ -2,32 +2,20 @@
 
 #include <cmath>
 
+#include "angle_coefficients.h"
 #include "lslam/assert.h"
 #include "lslam/geometry/sin_cos.h"
 
 namespace lslam {
 namespace {
 
-// Below this angle the coefficients whose closed forms are merely 0/0 at t = 0 (sin(t)/t,
-// atan(x)/x) switch to two-term Taylor series; the dropped fourth-order terms are < 3e-17 here.
-constexpr double kTinyAngle = 1e-4;
+using detail::kTinyAngle;
+using detail::sinc;
+using detail::versineOverSquare;
 
 // (t - sin t)/t^3 and 1 - (t/2)cot(t/2) cancel catastrophically near t = 0. Below this angle
 // they use six-term Taylor series instead; at the switch both forms are within 4e-14 relative.
 constexpr double kSeriesAngle = 0.3;
-
-// sin(t)/t, given sin_t = sin(t).
-double sinc(double t, double sin_t) noexcept {
-  if (std::abs(t) < kTinyAngle) return 1.0 - t * t / 6.0;
-  return sin_t / t;
-}
-
-// (1 - cos t)/t^2, formed as (1/2) sinc(t/2)^2: the direct 1 - cos t cancels for small t.
-double versineOverSquare(double t) noexcept {
-  const double h = 0.5 * t;
-  const double s = sinc(h, sinCos(h).sin);
-  return 0.5 * s * s;
-}
 
 // (t - sin t)/t^3, given sin_t = sin(t).
 double sineDefectOverCube(double t, double sin_t) noexcept {

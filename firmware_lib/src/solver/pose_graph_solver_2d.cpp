@@ -103,7 +103,7 @@ Status PoseGraphSolver2D::validate(const PoseInput* poses, Index num_poses,
 // `anchor`: the solver anchors the first added pose (update() adds a prior). `drop_anchor`: this
 // call takes the anchor out, so the committed graph (one connected piece, held by the anchor
 // alone) must itself be tied to one of this call's priors: by a prior on a committed pose, or
-// through this call's between factors to a new pose that is.
+// through this call's between factors to a pose it adds that is.
 Status PoseGraphSolver2D::checkAnchored(Index num_poses, const FactorInput* factors,
                                         Index num_factors, bool anchor, bool drop_anchor) const {
   const Index first_new = graph_.variables();

@@ -144,6 +144,8 @@ class PoseGraph2D final : public InformationSource<3> {
                        bool subtract, ColumnAccumulator<3>& acc) const;
   void advanceEpoch();
   void forgetStagedLinearizations();
+  Index appendFactor(FactorKind kind, Index first, Index second, const SE2& z,
+                     const Mat3& information);
   void link(Index variable, Index factor);
   // The between factor's linearization at the committed points (committed) or the current ones:
   // from the cache when it holds it, else computed and kept (at staged points only if keep_staged:

@@ -20,7 +20,7 @@
 //    no caller prior has come: the update that brings the first one takes the anchor out of the
 //    problem (it keeps its factor slot with zero information) and, since a factor cannot be taken
 //    out of L in place, reorders and refactorizes every column, once. That update must tie the
-//    map to its priors (a prior on a mapped pose, or between factors from a new pose with a
+//    map to its priors (a prior on a mapped pose, or between factors from an added pose with a
 //    prior to the map); otherwise it is UnconstrainedVariable, as the map would float free;
 //  - chi2() sums the caller's factors only, never the anchor.
 // The optimum is then always that of the caller's factors alone: with priors, theirs; without,
