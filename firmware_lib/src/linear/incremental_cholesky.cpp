@@ -10,34 +10,9 @@
 #include "subtract_transposed_products.h"
 
 namespace lslam {
-namespace {
 
-// Lower Cholesky factor of a small SPD block, inverted: returns false on a pivot that is not
-// positive and finite (never clamped: a bad pivot means the problem is not positive definite).
-template <int D>
-bool invertedCholesky(const Eigen::Matrix<double, D, D>& a, Eigen::Matrix<double, D, D>& l,
-                      Eigen::Matrix<double, D, D>& l_inv) {
-  l.setZero();
-  for (int j = 0; j < D; ++j) {
-    double pivot = a(j, j);
-    for (int p = 0; p < j; ++p) pivot -= l(j, p) * l(j, p);
-    if (!(pivot > 0.0) || !std::isfinite(pivot)) return false;
-    const double ljj = std::sqrt(pivot);
-    l(j, j) = ljj;
-    for (int i = j + 1; i < D; ++i) {
-      double v = a(i, j);
-      for (int p = 0; p < j; ++p) v -= l(i, p) * l(j, p);
-      l(i, j) = v / ljj;
-    }
-  }
-  l_inv = detail::invertLowerTriangular<D>(l);
-  return true;
-}
-
-}  // namespace
-
-template <int D>
-IncrementalCholesky<D>::IncrementalCholesky(const CholeskyArrays<D>& arrays) : a_(arrays) {
+template <int... S>
+IncrementalCholesky<S...>::IncrementalCholesky(const CholeskyArrays<S...>& arrays) : a_(arrays) {
   LSLAM_ASSERT(a_.max_columns > 0 && a_.max_blocks > 0);
   std::memset(a_.queued, 0, sizeof(std::uint32_t) * static_cast<std::size_t>(a_.max_columns));
   std::memset(a_.mark, 0, sizeof(std::uint32_t) * static_cast<std::size_t>(a_.max_columns));
@@ -51,8 +26,8 @@ IncrementalCholesky<D>::IncrementalCholesky(const CholeskyArrays<D>& arrays) : a
   a_.prev_sibling[root] = kNoIndex;
 }
 
-template <int D>
-void IncrementalCholesky<D>::beginUpdate(Index new_columns, bool full_refactor) {
+template <int... S>
+void IncrementalCholesky<S...>::beginUpdate(Index new_columns, bool full_refactor) {
   LSLAM_ASSERT(!in_update_);
   LSLAM_ASSERT(new_columns >= 0 && n_ + new_columns <= a_.max_columns);
   if (layout_pending_) layoutForSolve();
@@ -63,6 +38,7 @@ void IncrementalCholesky<D>::beginUpdate(Index new_columns, bool full_refactor) 
   }
   staged_columns_ = n_ + new_columns;
   pool_mark_ = pool_end_;
+  value_mark_ = value_end_;
   heap_size_ = 0;
   affected_count_ = 0;
   full_ = full_refactor;
@@ -79,29 +55,29 @@ void IncrementalCholesky<D>::beginUpdate(Index new_columns, bool full_refactor) 
   }
 }
 
-template <int D>
-void IncrementalCholesky<D>::markChanged(Index column) {
+template <int... S>
+void IncrementalCholesky<S...>::markChanged(Index column) {
   LSLAM_ASSERT(in_update_ && column >= 0 && column < staged_columns_);
   if (full_) return;  // every column is recomputed anyway
   queue(column);
   top_collected_ = false;  // a collected affected set no longer covers every changed column
 }
 
-template <int D>
-void IncrementalCholesky<D>::keepUnchangedStructures() {
+template <int... S>
+void IncrementalCholesky<S...>::keepUnchangedStructures() {
   LSLAM_ASSERT(in_update_ && full_);
   keep_structures_ = true;
 }
 
 // In a full refactorization the queue is idle, so its stamps mark the changed structures.
-template <int D>
-void IncrementalCholesky<D>::markStructureChanged(Index column) {
+template <int... S>
+void IncrementalCholesky<S...>::markStructureChanged(Index column) {
   LSLAM_ASSERT(in_update_ && column >= 0 && column < staged_columns_);
   if (keep_structures_) a_.queued[column] = stamp_;
 }
 
-template <int D>
-void IncrementalCholesky<D>::queue(Index column) {
+template <int... S>
+void IncrementalCholesky<S...>::queue(Index column) {
   if (a_.queued[column] == stamp_) return;
   a_.queued[column] = stamp_;
   a_.child_head[column] = kNoIndex;
@@ -117,8 +93,8 @@ void IncrementalCholesky<D>::queue(Index column) {
   a_.heap[i] = column;
 }
 
-template <int D>
-Index IncrementalCholesky<D>::popSmallest() {
+template <int... S>
+Index IncrementalCholesky<S...>::popSmallest() {
   const Index top = a_.heap[0];
   const Index last = a_.heap[--heap_size_];
   Index i = 0;
@@ -134,8 +110,8 @@ Index IncrementalCholesky<D>::popSmallest() {
   return top;
 }
 
-template <int D>
-std::uint32_t IncrementalCholesky<D>::nextMark() {
+template <int... S>
+std::uint32_t IncrementalCholesky<S...>::nextMark() {
   if (++mark_id_ == 0) {
     std::memset(a_.mark, 0, sizeof(std::uint32_t) * static_cast<std::size_t>(a_.max_columns));
     mark_id_ = 1;
@@ -143,10 +119,11 @@ std::uint32_t IncrementalCholesky<D>::nextMark() {
   return mark_id_;
 }
 
-template <int D>
-Status IncrementalCholesky<D>::factorize(const InformationSource<D>& source,
-                                         const Index* variable_at, const Index* position_of) {
+template <int... S>
+Status IncrementalCholesky<S...>::factorize(const InformationSource<S...>& source,
+                                            const Index* variable_at, const Index* position_of) {
   LSLAM_ASSERT(in_update_);
+  staging_variable_at_ = variable_at;
   // Symbolic: the structure of every affected column, in ascending order. A column's parent is
   // queued as soon as the column's structure is known, which grows the set to the root. A full
   // refactorization takes every column in turn instead, without a heap's sift-down per column.
@@ -175,29 +152,29 @@ Status IncrementalCholesky<D>::factorize(const InformationSource<D>& source,
     }
   }
   bool by_supernodes = false;
-  if constexpr (D == 3) by_supernodes = full_ && detail::cpuHasAvxFma();
-  if (by_supernodes) {
-    const Status s = factorizeBySupernodes();
-    if (s != Status::Ok) return s;
+  if constexpr (kUniform && D == 3) {
+    by_supernodes = full_ && detail::cpuHasAvxFma();
+    if (by_supernodes) {
+      const Status s = factorizeBySupernodes();
+      if (s != Status::Ok) return s;
+    }
   }
   for (Index i = 0; !by_supernodes && i < affected_count_; ++i) {
     const Index k = a_.affected[i];
     const Status s = finishColumn(k);
     if (s != Status::Ok) return s;
-    scatter(a_.rows + a_.staged_start[k], a_.blocks + a_.staged_start[k], a_.staged_count[k],
-            a_.staged_d[k], -1.0);
-    if (!full_ && k < n_) {
-      scatter(a_.rows + a_.start[k], a_.blocks + a_.start[k], a_.count[k], a_.d[k], 1.0);
-    }
+    scatterSlots(a_.staged_start[k], a_.staged_count[k], a_.staged_d[k], -1.0);
+    if (!full_ && k < n_) scatterSlots(a_.start[k], a_.count[k], a_.d[k], 1.0);
   }
   stats_.columns_recomputed = affected_count_;
   stats_.blocks_written = pool_end_ - pool_mark_;
   return Status::Ok;
 }
 
-template <int D>
-Status IncrementalCholesky<D>::buildStructure(Index k, const InformationSource<D>& source,
-                                              const Index* variable_at, const Index* position_of) {
+template <int... S>
+Status IncrementalCholesky<S...>::buildStructure(Index k, const InformationSource<S...>& source,
+                                                 const Index* variable_at,
+                                                 const Index* position_of) {
   const std::uint32_t id = nextMark();
   Index* rows = a_.scratch;
   // Structures only grow (factors are never removed), so the old structure stays a subset.
@@ -227,8 +204,9 @@ Status IncrementalCholesky<D>::buildStructure(Index k, const InformationSource<D
 }
 
 // Adds the rows of k's staged children below k (their structure minus k) to a row list.
-template <int D>
-Index IncrementalCholesky<D>::addChildrenFill(Index k, std::uint32_t id, Index* rows, Index count) {
+template <int... S>
+Index IncrementalCholesky<S...>::addChildrenFill(Index k, std::uint32_t id, Index* rows,
+                                                 Index count) {
   for (Index c = a_.child_head[k]; c != kNoIndex; c = a_.child_next[c]) {
     const Index* child_rows = a_.rows + a_.staged_start[c];
     for (Index i = 2; i < a_.staged_count[c]; ++i) {  // [0] is c, [1] is k itself
@@ -243,10 +221,25 @@ Index IncrementalCholesky<D>::addChildrenFill(Index k, std::uint32_t id, Index* 
 }
 
 // Writes column k's structure (k, then `rows` sorted) to the pool tail.
-template <int D>
-Status IncrementalCholesky<D>::stageStructure(Index k, Index* rows, Index count) {
+template <int... S>
+Status IncrementalCholesky<S...>::stageStructure(Index k, Index* rows, Index count) {
   std::sort(rows, rows + count);
   if (pool_end_ + count + 1 > a_.max_blocks) return Status::CapacityExhausted;
+  if constexpr (!kUniform) {
+    const int width = positionSize(k);
+    Index height = width;
+    for (Index i = 0; i < count; ++i) height += positionSize(rows[i]);
+    if (value_end_ + height * width > a_.max_values) return Status::CapacityExhausted;
+    a_.row_size[pool_end_] = static_cast<std::uint8_t>(width);
+    a_.offset[pool_end_] = value_end_;
+    value_end_ += width * width;
+    for (Index i = 0; i < count; ++i) {
+      const int size = positionSize(rows[i]);
+      a_.row_size[pool_end_ + 1 + i] = static_cast<std::uint8_t>(size);
+      a_.offset[pool_end_ + 1 + i] = value_end_;
+      value_end_ += size * width;
+    }
+  }
   a_.staged_start[k] = pool_end_;
   a_.staged_count[k] = count + 1;
   a_.rows[pool_end_] = k;
@@ -257,8 +250,8 @@ Status IncrementalCholesky<D>::stageStructure(Index k, Index* rows, Index count)
 
 // Whether column k keeps its old structure (see keepUnchangedStructures); a column that does not
 // is stamped, so that its parent does not either. Its children are staged already.
-template <int D>
-bool IncrementalCholesky<D>::keepsStructure(Index k) {
+template <int... S>
+bool IncrementalCholesky<S...>::keepsStructure(Index k) {
   if (!keep_structures_) return false;
   bool changed = k >= n_ || a_.queued[k] == stamp_;
   for (Index c = a_.child_head[k]; !changed && c != kNoIndex; c = a_.child_next[c]) {
@@ -269,10 +262,20 @@ bool IncrementalCholesky<D>::keepsStructure(Index k) {
 }
 
 // Stages column k's old structure as it is (k first, then its rows ascending).
-template <int D>
-Status IncrementalCholesky<D>::stageOldStructure(Index k) {
+template <int... S>
+Status IncrementalCholesky<S...>::stageOldStructure(Index k) {
   const Index count = a_.count[k];
   if (pool_end_ + count > a_.max_blocks) return Status::CapacityExhausted;
+  if constexpr (!kUniform) {
+    const Index from = a_.start[k];
+    if (value_end_ + columnValues(from, count) > a_.max_values) return Status::CapacityExhausted;
+    const int width = a_.row_size[from];
+    for (Index i = 0; i < count; ++i) {
+      a_.row_size[pool_end_ + i] = a_.row_size[from + i];
+      a_.offset[pool_end_ + i] = value_end_;
+      value_end_ += a_.row_size[from + i] * width;
+    }
+  }
   a_.staged_start[k] = pool_end_;
   a_.staged_count[k] = count;
   std::memcpy(a_.rows + pool_end_, a_.rows + a_.start[k],
@@ -283,18 +286,22 @@ Status IncrementalCholesky<D>::stageOldStructure(Index k) {
 }
 
 // Links k as a staged child of its parent, so that the parent's structure picks up k's fill.
-template <int D>
-void IncrementalCholesky<D>::linkStagedChild(Index k, Index parent) {
+template <int... S>
+void IncrementalCholesky<S...>::linkStagedChild(Index k, Index parent) {
   a_.child_next[k] = a_.child_head[parent];
   a_.child_head[parent] = k;
 }
 
-template <int D>
-void IncrementalCholesky<D>::startColumn(Index k, const InformationSource<D>& source,
-                                         const Index* variable_at, const Index* position_of) {
+template <int... S>
+void IncrementalCholesky<S...>::startColumn(Index k, const InformationSource<S...>& source,
+                                            const Index* variable_at, const Index* position_of) {
   const Index start = a_.staged_start[k];
   const Index size = a_.staged_count[k];
   const Index* rows = a_.rows + start;
+  if constexpr (!kUniform) {
+    startMixedColumn(k, source, variable_at, position_of);
+    return;
+  }
   Block* blocks = a_.blocks + start;
   for (Index i = 0; i < size; ++i) {
     a_.slot[rows[i]] = i;
@@ -314,7 +321,7 @@ void IncrementalCholesky<D>::startColumn(Index k, const InformationSource<D>& so
       blocks[a_.slot[old_rows[i]]].noalias() = old_blocks[i] * l_t;
     e.noalias() = l * a_.d[k];
   }
-  ColumnAccumulator<D> acc(blocks, a_.slot, &e);
+  ColumnAccumulator<S...> acc(blocks, a_.slot, &e);
   source.assembleColumnChange(variable_at[k], position_of, acc);
 }
 
@@ -324,18 +331,22 @@ void IncrementalCholesky<D>::startColumn(Index k, const InformationSource<D>& so
 // column is factorized), and each column's own blocks are zeroed just before it is assembled:
 // zeroing the whole staged factor first and adding to diagonal blocks scattered over it would
 // cost a cache miss per factor.
-template <int D>
-void IncrementalCholesky<D>::assembleAllColumns(const InformationSource<D>& source,
-                                                const Index* variable_at,
-                                                const Index* position_of) {
+template <int... S>
+void IncrementalCholesky<S...>::assembleAllColumns(const InformationSource<S...>& source,
+                                                   const Index* variable_at,
+                                                   const Index* position_of) {
   for (Index i = 0; i < affected_count_; ++i) {
     a_.staged_diagonal[a_.affected[i]].setZero();
     a_.staged_d[a_.affected[i]].setZero();
   }
-  LaterDiagonals<D> later(a_.staged_diagonal, a_.staged_d);
+  LaterDiagonals<S...> later(a_.staged_diagonal, a_.staged_d);
   for (Index i = 0; i < affected_count_; ++i) {
     const Index k = a_.affected[i];
     const Index* rows = a_.rows + a_.staged_start[k];
+    if constexpr (!kUniform) {
+      assembleMixedColumn(k, source, variable_at, position_of, later);
+      continue;
+    }
     Block* blocks = a_.blocks + a_.staged_start[k];
     // Every earlier column has been assembled: what they sent to k's diagonal is complete.
     blocks[0] = a_.staged_diagonal[k];
@@ -343,18 +354,19 @@ void IncrementalCholesky<D>::assembleAllColumns(const InformationSource<D>& sour
       blocks[b].setZero();
       a_.slot[rows[b]] = b;
     }
-    ColumnAccumulator<D> acc(blocks, a_.slot, &a_.staged_d[k]);
+    ColumnAccumulator<S...> acc(blocks, a_.slot, &a_.staged_d[k]);
     source.assembleColumn(variable_at[k], position_of, acc, later);
   }
 }
 
-template <int D>
-Status IncrementalCholesky<D>::finishColumn(Index k) {
+template <int... S>
+Status IncrementalCholesky<S...>::finishColumn(Index k) {
+  if constexpr (!kUniform) return finishMixedColumn(k);
   const Index size = a_.staged_count[k];
   Block* blocks = a_.blocks + a_.staged_start[k];
   Block l;
   Block l_inv;
-  if (!invertedCholesky<D>(blocks[0], l, l_inv)) return Status::NotPositiveDefinite;
+  if (!detail::invertedCholesky<D>(blocks[0], l, l_inv)) return Status::NotPositiveDefinite;
   a_.staged_diagonal[k] = l;
   blocks[0] = l_inv;
   // L(:,k) = C(:,k) L(k,k)^-T, and L(k,k)^-1 is lower-triangular: 6 multiply-adds per block row.
@@ -369,9 +381,9 @@ Status IncrementalCholesky<D>::finishColumn(Index k) {
 // Sends column k's contribution -/+ L(r,k) L(s,k)^T (and -/+ L(s,k) d(k)) to every column s of its
 // structure: sign -1 for the recomputed column, +1 to take back the old one. Every target is
 // staged.
-template <int D>
-void IncrementalCholesky<D>::scatter(const Index* rows, const Block* blocks, Index size,
-                                     const Vector& d, double sign) {
+template <int... S>
+void IncrementalCholesky<S...>::scatter(const Index* rows, const Block* blocks, Index size,
+                                        const Vector& d, double sign) {
   bool host_kernels = false;  // asked once per column: a call on a hot loop otherwise
   if constexpr (D == 3) host_kernels = detail::cpuHasAvxFma();
   for (Index a = 1; a < size; ++a) {
@@ -404,8 +416,18 @@ void IncrementalCholesky<D>::scatter(const Index* rows, const Block* blocks, Ind
   }
 }
 
-template <int D>
-void IncrementalCholesky<D>::commit() {
+template <int... S>
+void IncrementalCholesky<S...>::scatterSlots(Index start, Index count, const Vector& d,
+                                             double sign) {
+  if constexpr (kUniform) {
+    scatter(a_.rows + start, a_.blocks + start, count, d, sign);
+  } else {
+    scatterMixed(start, count, d, sign);
+  }
+}
+
+template <int... S>
+void IncrementalCholesky<S...>::commit() {
   LSLAM_ASSERT(in_update_);
   if (reordered_) {
     commitReordered();
@@ -444,8 +466,8 @@ void IncrementalCholesky<D>::commit() {
 }
 
 // Makes column k's staged values its committed ones.
-template <int D>
-void IncrementalCholesky<D>::installStaged(Index k) {
+template <int... S>
+void IncrementalCholesky<S...>::installStaged(Index k) {
   a_.start[k] = a_.staged_start[k];
   a_.count[k] = a_.staged_count[k];
   live_blocks_ += a_.count[k];
@@ -461,47 +483,54 @@ void IncrementalCholesky<D>::installStaged(Index k) {
 // its committed blocks (the structures are then equal: they only grow), and the columns that grew
 // (and the added ones) are packed at the start of the staging area. The tail is reused by the next
 // update, the factor stays compact, and only grown columns leave garbage behind.
-template <int D>
-void IncrementalCholesky<D>::settleStagedColumns() {
+template <int... S>
+void IncrementalCholesky<S...>::settleStagedColumns() {
   Index* grown = a_.scratch;
   Index num_grown = 0;
   for (Index i = 0; i < affected_count_; ++i) {
     const Index k = a_.affected[i];
     if (k < n_ && a_.staged_count[k] == a_.count[k]) {
-      const Block* from = a_.blocks + a_.staged_start[k];
-      Block* to = a_.blocks + a_.start[k];
-      for (Index b = 0; b < a_.count[k]; ++b) to[b] = from[b];
+      copyColumnValues(a_.staged_start[k], a_.count[k], a_.start[k]);
       a_.staged_start[k] = a_.start[k];
     } else {
       grown[num_grown++] = k;
     }
   }
-  pool_end_ = packColumns(grown, num_grown, a_.staged_start, a_.staged_count, pool_mark_);
+  const PoolEnd end =
+      packColumns(grown, num_grown, a_.staged_start, a_.staged_count, {pool_mark_, value_mark_});
+  pool_end_ = end.blocks;
+  value_end_ = end.values;
 }
 
 // Moves `columns` (start/count: their pool places) to consecutive places from `write` on, in pool
-// order, so that every move goes towards the front and never over a column not yet moved. Returns
-// the end of the packed range.
-template <int D>
-Index IncrementalCholesky<D>::packColumns(Index* columns, Index num, Index* start,
-                                          const Index* count, Index write) {
+// order, so that every move goes towards the front and never over a column not yet moved (mixed
+// sizes: a column's values lie in the pool in the order of its slots, so the same holds for them).
+// Returns the end of the packed range.
+template <int... S>
+typename IncrementalCholesky<S...>::PoolEnd IncrementalCholesky<S...>::packColumns(
+    Index* columns, Index num, Index* start, const Index* count, PoolEnd write) {
   std::sort(columns, columns + num, [start](Index x, Index y) { return start[x] < start[y]; });
   for (Index i = 0; i < num; ++i) {
     const Index k = columns[i];
     const Index from = start[k];
     const Index size = count[k];
-    if (from != write) {
-      std::memmove(a_.rows + write, a_.rows + from, sizeof(Index) * static_cast<std::size_t>(size));
-      for (Index b = 0; b < size; ++b) a_.blocks[write + b] = a_.blocks[from + b];
+    if constexpr (kUniform) {
+      if (from != write.blocks) {
+        std::memmove(a_.rows + write.blocks, a_.rows + from,
+                     sizeof(Index) * static_cast<std::size_t>(size));
+        for (Index b = 0; b < size; ++b) a_.blocks[write.blocks + b] = a_.blocks[from + b];
+      }
+    } else {
+      write.values = moveColumn(from, size, write);
     }
-    start[k] = write;
-    write += size;
+    start[k] = write.blocks;
+    write.blocks += size;
   }
   return write;
 }
 
-template <int D>
-std::int64_t IncrementalCholesky<D>::inPlaceProducts() {
+template <int... S>
+std::int64_t IncrementalCholesky<S...>::inPlaceProducts() {
   LSLAM_ASSERT(in_update_ && !full_);
   const std::uint32_t id = nextMark();
   std::int64_t products = 0;
@@ -515,17 +544,18 @@ std::int64_t IncrementalCholesky<D>::inPlaceProducts() {
   return products;
 }
 
-template <int D>
-void IncrementalCholesky<D>::rollback() {
+template <int... S>
+void IncrementalCholesky<S...>::rollback() {
   LSLAM_ASSERT(in_update_);
   pool_end_ = pool_mark_;
+  value_end_ = value_mark_;
   staged_columns_ = n_;
   affected_count_ = 0;
   in_update_ = false;
 }
 
-template <int D>
-void IncrementalCholesky<D>::linkChild(Index parent, Index child) {
+template <int... S>
+void IncrementalCholesky<S...>::linkChild(Index parent, Index child) {
   const Index p = parent == kNoIndex ? a_.max_columns : parent;
   const Index head = a_.first_child[p];
   a_.next_sibling[child] = head;
@@ -534,8 +564,8 @@ void IncrementalCholesky<D>::linkChild(Index parent, Index child) {
   a_.first_child[p] = child;
 }
 
-template <int D>
-void IncrementalCholesky<D>::unlinkChild(Index parent, Index child) {
+template <int... S>
+void IncrementalCholesky<S...>::unlinkChild(Index parent, Index child) {
   const Index p = parent == kNoIndex ? a_.max_columns : parent;
   const Index prev = a_.prev_sibling[child];
   const Index next = a_.next_sibling[child];
@@ -547,16 +577,16 @@ void IncrementalCholesky<D>::unlinkChild(Index parent, Index child) {
   if (next != kNoIndex) a_.prev_sibling[next] = prev;
 }
 
-template <int D>
-void IncrementalCholesky<D>::rebuildChildLists() {
+template <int... S>
+void IncrementalCholesky<S...>::rebuildChildLists() {
   a_.first_child[a_.max_columns] = kNoIndex;
   for (Index k = 0; k < n_; ++k) a_.first_child[k] = kNoIndex;
   // Descending, so that every child list ends up in ascending order.
   for (Index k = n_ - 1; k >= 0; --k) linkChild(parent(k), k);
 }
 
-template <int D>
-void IncrementalCholesky<D>::compact() {
+template <int... S>
+void IncrementalCholesky<S...>::compact() {
   LSLAM_ASSERT(!in_update_);
   if (layout_pending_) {
     layoutForSolve();
@@ -564,13 +594,15 @@ void IncrementalCholesky<D>::compact() {
   }
   Index* order = a_.scratch;
   for (Index k = 0; k < n_; ++k) order[k] = k;
-  pool_end_ = packColumns(order, n_, a_.start, a_.count, 0);
+  const PoolEnd end = packColumns(order, n_, a_.start, a_.count, {0, 0});
+  pool_end_ = end.blocks;
+  value_end_ = end.values;
   LSLAM_ASSERT(pool_end_ == live_blocks_);
 }
 
-template <int D>
-Index IncrementalCholesky<D>::backSubstitute(Vector* delta, const Index* variable_at,
-                                             double tolerance, bool full, Index* visited) {
+template <int... S>
+Index IncrementalCholesky<S...>::backSubstitute(Vector* delta, const Index* variable_at,
+                                                double tolerance, bool full, Index* visited) {
   LSLAM_ASSERT(!in_update_);
   if (layout_pending_) return solveInColumnOrder(delta, variable_at, visited);
   const std::uint32_t changed = nextMark();
@@ -585,8 +617,13 @@ Index IncrementalCholesky<D>::backSubstitute(Vector* delta, const Index* variabl
     const Index k = stack[--top];
     const Index* rows = columnRows(k);
     const Index size = a_.count[k];
-    const bool moved = detail::solveColumnInPlace<D>(
-        a_.d[k], columnBlocks(k), rows, size, a_.solution, k, tolerance, delta[variable_at[k]]);
+    bool moved;
+    if constexpr (kUniform) {  // inline: once per visited column
+      moved = detail::solveColumnInPlace<D>(a_.d[k], columnBlocks(k), rows, size, a_.solution, k,
+                                            tolerance, delta[variable_at[k]]);
+    } else {
+      moved = solveMixedColumn(k, tolerance, delta[variable_at[k]]);
+    }
     a_.needs_solve[k] = 0;
     visited[solved++] = k;
     if (moved) mark[k] = changed;
@@ -601,51 +638,73 @@ Index IncrementalCholesky<D>::backSubstitute(Vector* delta, const Index* variabl
   return solved;
 }
 
+template <int... S>
+bool IncrementalCholesky<S...>::solveColumn(Index k, double tolerance, Vector& delta) {
+  if constexpr (kUniform) {
+    return detail::solveColumnInPlace<D>(a_.d[k], columnBlocks(k), columnRows(k), a_.count[k],
+                                         a_.solution, k, tolerance, delta);
+  } else {
+    return solveMixedColumn(k, tolerance, delta);
+  }
+}
+
 // The members defined here, one by one, as in the other parts of the class (_reorder, _row_update,
 // _layout, _supernodes). Not `template class`: GCC's link-time optimizer turns this file's calls
 // to members defined in another part into weak references when the class is instantiated whole,
 // and a linker pulls no archive member for a weak reference (an -flto build then fails to link:
 // undefined factorizeBySupernodes). Member by member, the references stay strong.
-#define LSLAM_INSTANTIATE_CORE(D)                                                                 \
-  template IncrementalCholesky<D>::IncrementalCholesky(const CholeskyArrays<D>&);                 \
-  template void IncrementalCholesky<D>::beginUpdate(Index, bool);                                 \
-  template void IncrementalCholesky<D>::markChanged(Index);                                       \
-  template void IncrementalCholesky<D>::keepUnchangedStructures();                                \
-  template void IncrementalCholesky<D>::markStructureChanged(Index);                              \
-  template void IncrementalCholesky<D>::queue(Index);                                             \
-  template Index IncrementalCholesky<D>::popSmallest();                                           \
-  template std::uint32_t IncrementalCholesky<D>::nextMark();                                      \
-  template Status IncrementalCholesky<D>::factorize(const InformationSource<D>&, const Index*,    \
-                                                    const Index*);                                \
-  template Status IncrementalCholesky<D>::buildStructure(Index, const InformationSource<D>&,      \
-                                                         const Index*, const Index*);             \
-  template Index IncrementalCholesky<D>::addChildrenFill(Index, std::uint32_t, Index*, Index);    \
-  template Status IncrementalCholesky<D>::stageStructure(Index, Index*, Index);                   \
-  template bool IncrementalCholesky<D>::keepsStructure(Index);                                    \
-  template Status IncrementalCholesky<D>::stageOldStructure(Index);                               \
-  template void IncrementalCholesky<D>::linkStagedChild(Index, Index);                            \
-  template void IncrementalCholesky<D>::startColumn(Index, const InformationSource<D>&,           \
-                                                    const Index*, const Index*);                  \
-  template void IncrementalCholesky<D>::assembleAllColumns(const InformationSource<D>&,           \
-                                                           const Index*, const Index*);           \
-  template Status IncrementalCholesky<D>::finishColumn(Index);                                    \
-  template void IncrementalCholesky<D>::scatter(const Index*, const Block*, Index, const Vector&, \
-                                                double);                                          \
-  template void IncrementalCholesky<D>::commit();                                                 \
-  template void IncrementalCholesky<D>::installStaged(Index);                                     \
-  template void IncrementalCholesky<D>::settleStagedColumns();                                    \
-  template Index IncrementalCholesky<D>::packColumns(Index*, Index, Index*, const Index*, Index); \
-  template std::int64_t IncrementalCholesky<D>::inPlaceProducts();                                \
-  template void IncrementalCholesky<D>::rollback();                                               \
-  template void IncrementalCholesky<D>::linkChild(Index, Index);                                  \
-  template void IncrementalCholesky<D>::unlinkChild(Index, Index);                                \
-  template void IncrementalCholesky<D>::rebuildChildLists();                                      \
-  template void IncrementalCholesky<D>::compact();                                                \
-  template Index IncrementalCholesky<D>::backSubstitute(Vector*, const Index*, double, bool,      \
-                                                        Index*);
+#define LSLAM_INSTANTIATE_CORE(...)                                                              \
+  template IncrementalCholesky<__VA_ARGS__>::IncrementalCholesky(                                \
+      const CholeskyArrays<__VA_ARGS__>&);                                                       \
+  template void IncrementalCholesky<__VA_ARGS__>::beginUpdate(Index, bool);                      \
+  template void IncrementalCholesky<__VA_ARGS__>::markChanged(Index);                            \
+  template void IncrementalCholesky<__VA_ARGS__>::keepUnchangedStructures();                     \
+  template void IncrementalCholesky<__VA_ARGS__>::markStructureChanged(Index);                   \
+  template void IncrementalCholesky<__VA_ARGS__>::queue(Index);                                  \
+  template Index IncrementalCholesky<__VA_ARGS__>::popSmallest();                                \
+  template std::uint32_t IncrementalCholesky<__VA_ARGS__>::nextMark();                           \
+  template Status IncrementalCholesky<__VA_ARGS__>::factorize(                                   \
+      const InformationSource<__VA_ARGS__>&, const Index*, const Index*);                        \
+  template Status IncrementalCholesky<__VA_ARGS__>::buildStructure(                              \
+      Index, const InformationSource<__VA_ARGS__>&, const Index*, const Index*);                 \
+  template Index IncrementalCholesky<__VA_ARGS__>::addChildrenFill(Index, std::uint32_t, Index*, \
+                                                                   Index);                       \
+  template Status IncrementalCholesky<__VA_ARGS__>::stageStructure(Index, Index*, Index);        \
+  template bool IncrementalCholesky<__VA_ARGS__>::keepsStructure(Index);                         \
+  template Status IncrementalCholesky<__VA_ARGS__>::stageOldStructure(Index);                    \
+  template void IncrementalCholesky<__VA_ARGS__>::linkStagedChild(Index, Index);                 \
+  template void IncrementalCholesky<__VA_ARGS__>::startColumn(                                   \
+      Index, const InformationSource<__VA_ARGS__>&, const Index*, const Index*);                 \
+  template void IncrementalCholesky<__VA_ARGS__>::assembleAllColumns(                            \
+      const InformationSource<__VA_ARGS__>&, const Index*, const Index*);                        \
+  template Status IncrementalCholesky<__VA_ARGS__>::finishColumn(Index);                         \
+  template void IncrementalCholesky<__VA_ARGS__>::commit();                                      \
+  template void IncrementalCholesky<__VA_ARGS__>::installStaged(Index);                          \
+  template void IncrementalCholesky<__VA_ARGS__>::settleStagedColumns();                         \
+  template typename IncrementalCholesky<__VA_ARGS__>::PoolEnd                                    \
+  IncrementalCholesky<__VA_ARGS__>::packColumns(Index*, Index, Index*, const Index*, PoolEnd);   \
+  template std::int64_t IncrementalCholesky<__VA_ARGS__>::inPlaceProducts();                     \
+  template void IncrementalCholesky<__VA_ARGS__>::rollback();                                    \
+  template void IncrementalCholesky<__VA_ARGS__>::linkChild(Index, Index);                       \
+  template void IncrementalCholesky<__VA_ARGS__>::unlinkChild(Index, Index);                     \
+  template void IncrementalCholesky<__VA_ARGS__>::rebuildChildLists();                           \
+  template void IncrementalCholesky<__VA_ARGS__>::compact();                                     \
+  template Index IncrementalCholesky<__VA_ARGS__>::backSubstitute(Vector*, const Index*, double, \
+                                                                  bool, Index*);                 \
+  template void IncrementalCholesky<__VA_ARGS__>::scatterSlots(Index, Index, const Vector&,      \
+                                                               double);                          \
+  template bool IncrementalCholesky<__VA_ARGS__>::solveColumn(Index, double, Vector&);
 LSLAM_INSTANTIATE_CORE(2)
 LSLAM_INSTANTIATE_CORE(3)
 LSLAM_INSTANTIATE_CORE(6)
+LSLAM_INSTANTIATE_CORE(3, 2)
+LSLAM_INSTANTIATE_CORE(6, 3)
 #undef LSLAM_INSTANTIATE_CORE
+template void IncrementalCholesky<2>::scatter(const Index*, const Block*, Index, const Vector&,
+                                              double);
+template void IncrementalCholesky<3>::scatter(const Index*, const Block*, Index, const Vector&,
+                                              double);
+template void IncrementalCholesky<6>::scatter(const Index*, const Block*, Index, const Vector&,
+                                              double);
 
 }  // namespace lslam

@@ -22,20 +22,39 @@
 
 namespace lslam {
 
-template <int D>
-void IncrementalCholesky<D>::layoutForSolve() {
+template <int... S>
+void IncrementalCholesky<S...>::layoutForSolve() {
   LSLAM_ASSERT(!in_update_);
   layout_pending_ = false;  // done now, or impossible until a compaction
   Index lowest = pool_end_;
   for (Index k = 0; k < n_; ++k) lowest = std::min(lowest, a_.start[k]);
   Index base = 0;
-  if (lowest < live_blocks_) {
+  Index value_base = 0;
+  Index live_values = 0;
+  if constexpr (!kUniform) {
+    for (Index k = 0; k < n_; ++k) live_values += columnValues(a_.start[k], a_.count[k]);
+  }
+  // Written in place from 0 only when no column lies below the live size (mixed sizes: for the
+  // values too); otherwise beyond the pool's end, then moved to the front.
+  bool beyond_end = lowest < live_blocks_;
+  if constexpr (!kUniform) {
+    Index lowest_value = value_end_;
+    for (Index k = 0; k < n_; ++k) {
+      for (Index i = 0; i < a_.count[k]; ++i)
+        lowest_value = std::min(lowest_value, a_.offset[a_.start[k] + i]);
+    }
+    beyond_end = beyond_end || lowest_value < live_values;
+  }
+  if (beyond_end) {
     if (pool_end_ + live_blocks_ > a_.max_blocks) return;
+    if (value_end_ + live_values > a_.max_values) return;
     base = pool_end_;
+    value_base = value_end_;
   }
   Index* stack = a_.heap;
   Index top = 0;
   Index write = base;
+  Index value_write = value_base;
   for (Index c = a_.first_child[a_.max_columns]; c != kNoIndex; c = a_.next_sibling[c]) {
     stack[top++] = c;
   }
@@ -44,17 +63,37 @@ void IncrementalCholesky<D>::layoutForSolve() {
     const Index from = a_.start[k];
     const Index size = a_.count[k];
     std::memcpy(a_.rows + write, a_.rows + from, sizeof(Index) * static_cast<std::size_t>(size));
-    for (Index b = 0; b < size; ++b) a_.blocks[write + b] = a_.blocks[from + b];
+    if constexpr (kUniform) {
+      for (Index b = 0; b < size; ++b) a_.blocks[write + b] = a_.blocks[from + b];
+    } else {
+      const int width = a_.row_size[from];
+      for (Index b = 0; b < size; ++b) {
+        const Index length = a_.row_size[from + b] * width;
+        std::memmove(a_.values + value_write, a_.values + a_.offset[from + b],
+                     sizeof(double) * static_cast<std::size_t>(length));
+        a_.row_size[write + b] = a_.row_size[from + b];
+        a_.offset[write + b] = value_write - value_base;
+        value_write += length;
+      }
+    }
     a_.start[k] = write - base;
     write += size;
     for (Index c = a_.first_child[k]; c != kNoIndex; c = a_.next_sibling[c]) stack[top++] = c;
   }
   LSLAM_ASSERT(write - base == live_blocks_);
   if (base != 0) {
-    // Downwards, so a forward copy never overwrites what it has still to read.
     std::memmove(a_.rows, a_.rows + base, sizeof(Index) * static_cast<std::size_t>(live_blocks_));
-    for (Index b = 0; b < live_blocks_; ++b) a_.blocks[b] = a_.blocks[base + b];
+    if constexpr (kUniform) {
+      for (Index b = 0; b < live_blocks_; ++b) a_.blocks[b] = a_.blocks[base + b];
+    } else {
+      std::memmove(a_.row_size, a_.row_size + base, static_cast<std::size_t>(live_blocks_));
+      std::memmove(a_.offset, a_.offset + base,
+                   sizeof(Index) * static_cast<std::size_t>(live_blocks_));
+      std::memmove(a_.values, a_.values + value_base,
+                   sizeof(double) * static_cast<std::size_t>(live_values));
+    }
   }
+  value_end_ = live_values;
   pool_end_ = live_blocks_;
 }
 
@@ -63,22 +102,20 @@ void IncrementalCholesky<D>::layoutForSolve() {
 // descending column order (a parent always comes after its children) reads the columns where
 // the factorization staged them, ascending, backwards and contiguously, where the depth-first walk
 // would jump.
-template <int D>
-Index IncrementalCholesky<D>::solveInColumnOrder(Vector* delta, const Index* variable_at,
-                                                 Index* visited) {
+template <int... S>
+Index IncrementalCholesky<S...>::solveInColumnOrder(Vector* delta, const Index* variable_at,
+                                                    Index* visited) {
   for (Index k = n_ - 1; k >= 0; --k) {
     // Every column is solved here, moved or not.
-    static_cast<void>(detail::solveColumnInPlace<D>(a_.d[k], columnBlocks(k), columnRows(k),
-                                                    a_.count[k], a_.solution, k, 0.0,
-                                                    delta[variable_at[k]]));
+    static_cast<void>(solveColumn(k, 0.0, delta[variable_at[k]]));
     a_.needs_solve[k] = 0;
     visited[n_ - 1 - k] = k;
   }
   return n_;
 }
 
-template <int D>
-void IncrementalCholesky<D>::loadSolution(const Vector* delta, const Index* variable_at) {
+template <int... S>
+void IncrementalCholesky<S...>::loadSolution(const Vector* delta, const Index* variable_at) {
   for (Index k = 0; k < n_; ++k) solutionEntry(k) = delta[variable_at[k]];
 }
 
@@ -93,6 +130,16 @@ template void IncrementalCholesky<3>::loadSolution(const IncrementalCholesky<3>:
 template Index IncrementalCholesky<3>::solveInColumnOrder(IncrementalCholesky<3>::Vector*,
                                                           const Index*, Index*);
 template void IncrementalCholesky<6>::layoutForSolve();
+template void IncrementalCholesky<3, 2>::layoutForSolve();
+template void IncrementalCholesky<3, 2>::loadSolution(const IncrementalCholesky<3, 2>::Vector*,
+                                                      const Index*);
+template Index IncrementalCholesky<3, 2>::solveInColumnOrder(IncrementalCholesky<3, 2>::Vector*,
+                                                             const Index*, Index*);
+template void IncrementalCholesky<6, 3>::layoutForSolve();
+template void IncrementalCholesky<6, 3>::loadSolution(const IncrementalCholesky<6, 3>::Vector*,
+                                                      const Index*);
+template Index IncrementalCholesky<6, 3>::solveInColumnOrder(IncrementalCholesky<6, 3>::Vector*,
+                                                             const Index*, Index*);
 template void IncrementalCholesky<6>::loadSolution(const IncrementalCholesky<6>::Vector*,
                                                    const Index*);
 template Index IncrementalCholesky<6>::solveInColumnOrder(IncrementalCholesky<6>::Vector*,

@@ -16,8 +16,8 @@
 namespace lslam {
 
 // A = the queued columns (changed and added) and all their ancestors in the current etree, sorted.
-template <int D>
-Index IncrementalCholesky<D>::collectAffectedTop() {
+template <int... S>
+Index IncrementalCholesky<S...>::collectAffectedTop() {
   const std::uint32_t id = nextMark();
   Index count = 0;
   for (Index h = 0; h < heap_size_; ++h) {
@@ -32,8 +32,8 @@ Index IncrementalCholesky<D>::collectAffectedTop() {
   return count;
 }
 
-template <int D>
-Index IncrementalCholesky<D>::affectedTopSize() {
+template <int... S>
+Index IncrementalCholesky<S...>::affectedTopSize() {
   LSLAM_ASSERT(in_update_ && !full_);
   top_size_ = collectAffectedTop();
   top_collected_ = true;
@@ -42,8 +42,8 @@ Index IncrementalCholesky<D>::affectedTopSize() {
 
 // For every variable of A (by rank), the old columns of A whose clique ({j} and its structure, all
 // in A because A is closed upwards) holds it: the pattern of the Schur complement on A.
-template <int D>
-void IncrementalCholesky<D>::buildCliqueIndex() {
+template <int... S>
+void IncrementalCholesky<S...>::buildCliqueIndex() {
   Index* start = a_.clique_start;
   for (Index r = 0; r <= top_size_; ++r) start[r] = 0;
   for (Index r = 0; r < top_size_; ++r) {
@@ -65,9 +65,9 @@ void IncrementalCholesky<D>::buildCliqueIndex() {
 
 // The fresh order of A in top_order (current positions): COLAMD on the cliques for the free
 // variables, then `last` as given.
-template <int D>
-Status IncrementalCholesky<D>::orderAffectedTop(ColamdOrdering& ordering, const Index* last,
-                                                Index num_last) {
+template <int... S>
+Status IncrementalCholesky<S...>::orderAffectedTop(ColamdOrdering& ordering, const Index* last,
+                                                   Index num_last) {
   // affectedTopSize() has usually just collected A (the caller's policy asks for |A| first).
   if (!top_collected_) top_size_ = collectAffectedTop();
   for (Index r = 0; r < top_size_; ++r) a_.rank_of[a_.affected[r]] = r;
@@ -107,10 +107,11 @@ Status IncrementalCholesky<D>::orderAffectedTop(ColamdOrdering& ordering, const 
 
 // Structure of the reordered column k (reordered position): the members after k of every old clique
 // holding its variable, its factor neighbours after k, and the fill of its children.
-template <int D>
-Status IncrementalCholesky<D>::buildReorderedStructure(Index k, const InformationSource<D>& source,
-                                                       const Index* new_variable_at,
-                                                       const Index* new_position_of) {
+template <int... S>
+Status IncrementalCholesky<S...>::buildReorderedStructure(Index k,
+                                                          const InformationSource<S...>& source,
+                                                          const Index* new_variable_at,
+                                                          const Index* new_position_of) {
   const std::uint32_t id = nextMark();
   Index* rows = a_.scratch;
   Index count = 0;
@@ -138,46 +139,25 @@ Status IncrementalCholesky<D>::buildReorderedStructure(Index k, const Informatio
 // Adds old column j's share of the Schur complement on A, L(:,j) L(:,j)^T and L(:,j) d(j), to the
 // staged columns in the fresh order (its members sorted by reordered position, so each target is
 // merged).
-template <int D>
-void IncrementalCholesky<D>::addOldClique(Index j) {
+template <int... S>
+void IncrementalCholesky<S...>::addOldClique(Index j) {
   const Index size = a_.count[j];
   const Index* rows = a_.rows + a_.start[j];
-  const Block* blocks = a_.blocks + a_.start[j];
   Index* order = a_.heap;  // free: the queue was read by collectAffectedTop()
   for (Index i = 0; i < size; ++i) order[i] = i;
   const Index* new_position = a_.new_position;
   std::sort(order, order + size, [rows, new_position](Index x, Index y) {
     return new_position[rows[x]] < new_position[rows[y]];
   });
-  // The pool holds L(j,j)^-1; the Schur complement needs L(j,j) itself.
-  auto member = [&](Index i) -> const Block& { return i == 0 ? a_.diagonal[j] : blocks[i]; };
-  const Vector& dj = a_.d[j];
-  for (Index a = 0; a < size; ++a) {
-    const Index ia = order[a];
-    const Index target_column = new_position[rows[ia]];
-    const Index* target_rows = a_.rows + a_.staged_start[target_column];
-    Block* target = a_.blocks + a_.staged_start[target_column];
-    const Block& m_a = member(ia);
-    const Block m_a_t = m_a.transpose();
-    a_.staged_d[target_column].noalias() += m_a * dj;
-    target[0].noalias() += m_a * m_a_t;
-    Index p = 1;
-    for (Index b = a + 1; b < size; ++b) {
-      const Index ib = order[b];
-      const Index row = new_position[rows[ib]];
-      while (target_rows[p] < row) ++p;
-      LSLAM_DEBUG_ASSERT(p < a_.staged_count[target_column] && target_rows[p] == row);
-      target[p].noalias() += member(ib) * m_a_t;
-    }
-  }
-  stats_.block_products += static_cast<std::int64_t>(size) * (size + 1) / 2;
+  addMembersOfOldClique(j, order);
 }
 
-template <int D>
-Status IncrementalCholesky<D>::factorizeReordered(const InformationSource<D>& source,
-                                                  ColamdOrdering& ordering, const Index* last,
-                                                  Index num_last, const Index* variable_at,
-                                                  Index* new_variable_at, Index* new_position_of) {
+template <int... S>
+Status IncrementalCholesky<S...>::factorizeReordered(const InformationSource<S...>& source,
+                                                     ColamdOrdering& ordering, const Index* last,
+                                                     Index num_last, const Index* variable_at,
+                                                     Index* new_variable_at,
+                                                     Index* new_position_of) {
   LSLAM_ASSERT(in_update_ && !full_);
   const Status ordered = orderAffectedTop(ordering, last, num_last);
   if (ordered != Status::Ok) return ordered;
@@ -200,6 +180,7 @@ Status IncrementalCholesky<D>::factorizeReordered(const InformationSource<D>& so
     new_position_of[variable_at[c]] = a_.new_position[c];
   }
   reordered_ = true;
+  staging_variable_at_ = new_variable_at;
   // Symbolic, in the fresh order.
   for (Index k = top_base_; k < total; ++k) a_.child_head[k] = kNoIndex;
   for (Index k = top_base_; k < total; ++k) {
@@ -215,8 +196,7 @@ Status IncrementalCholesky<D>::factorizeReordered(const InformationSource<D>& so
   for (Index k = top_base_; k < total; ++k) {
     const Status s = finishColumn(k);
     if (s != Status::Ok) return s;
-    scatter(a_.rows + a_.staged_start[k], a_.blocks + a_.staged_start[k], a_.staged_count[k],
-            a_.staged_d[k], -1.0);
+    scatterSlots(a_.staged_start[k], a_.staged_count[k], a_.staged_d[k], -1.0);
   }
   stats_.columns_recomputed = top_size_;
   stats_.blocks_written = pool_end_ - pool_mark_;
@@ -226,8 +206,8 @@ Status IncrementalCholesky<D>::factorizeReordered(const InformationSource<D>& so
 // Installs a reordered update: the columns outside A move down to their reordered positions with
 // their rows relabelled (the rows in A, always a suffix, re-sorted), and A's recomputed columns go
 // on top.
-template <int D>
-void IncrementalCholesky<D>::commitReordered() {
+template <int... S>
+void IncrementalCholesky<S...>::commitReordered() {
   const Index old_n = n_;
   const Index total = staged_columns_;
   for (Index r = 0; r < top_size_; ++r) {
@@ -250,7 +230,6 @@ void IncrementalCholesky<D>::commitReordered() {
   const Index lowest_moved = a_.affected[0];
   for (Index k = 0; k < top_base_; ++k) {
     Index* rows = a_.rows + a_.start[k];
-    Block* blocks = a_.blocks + a_.start[k];
     const Index size = a_.count[k];
     if (rows[size - 1] < lowest_moved) continue;  // no row of this column moved
     Index first_top = size;
@@ -258,17 +237,33 @@ void IncrementalCholesky<D>::commitReordered() {
       rows[i] = a_.new_position[rows[i]];
       if (rows[i] >= top_base_ && first_top == size) first_top = i;
     }
-    // Insertion sort of the suffix in A (short), moving the blocks with their rows.
+    // Insertion sort of the suffix in A (short), moving the blocks with their rows (mixed sizes:
+    // their offsets and sizes; the values stay where they are, in the column's range).
     for (Index i = first_top + 1; i < size; ++i) {
       const Index row = rows[i];
-      const Block block = blocks[i];
       Index p = i;
-      for (; p > first_top && rows[p - 1] > row; --p) {
-        rows[p] = rows[p - 1];
-        blocks[p] = blocks[p - 1];
+      if constexpr (kUniform) {
+        Block* blocks = a_.blocks + a_.start[k];
+        const Block block = blocks[i];
+        for (; p > first_top && rows[p - 1] > row; --p) {
+          rows[p] = rows[p - 1];
+          blocks[p] = blocks[p - 1];
+        }
+        blocks[p] = block;
+      } else {
+        Index* offset = a_.offset + a_.start[k];
+        std::uint8_t* row_size = a_.row_size + a_.start[k];
+        const Index block_offset = offset[i];
+        const std::uint8_t block_size = row_size[i];
+        for (; p > first_top && rows[p - 1] > row; --p) {
+          rows[p] = rows[p - 1];
+          offset[p] = offset[p - 1];
+          row_size[p] = row_size[p - 1];
+        }
+        offset[p] = block_offset;
+        row_size[p] = block_size;
       }
       rows[p] = row;
-      blocks[p] = block;
     }
   }
   for (Index k = top_base_; k < total; ++k) installStaged(k);
@@ -278,21 +273,24 @@ void IncrementalCholesky<D>::commitReordered() {
 }
 
 // Every member defined here is instantiated here (only this file sees their definitions).
-#define LSLAM_INSTANTIATE_REORDER(D)                                                               \
-  template Index IncrementalCholesky<D>::collectAffectedTop();                                     \
-  template Index IncrementalCholesky<D>::affectedTopSize();                                        \
-  template void IncrementalCholesky<D>::buildCliqueIndex();                                        \
-  template Status IncrementalCholesky<D>::orderAffectedTop(ColamdOrdering&, const Index*, Index);  \
-  template Status IncrementalCholesky<D>::buildReorderedStructure(                                 \
-      Index, const InformationSource<D>&, const Index*, const Index*);                             \
-  template void IncrementalCholesky<D>::addOldClique(Index);                                       \
-  template Status IncrementalCholesky<D>::factorizeReordered(const InformationSource<D>&,          \
-                                                             ColamdOrdering&, const Index*, Index, \
-                                                             const Index*, Index*, Index*);        \
-  template void IncrementalCholesky<D>::commitReordered();
+#define LSLAM_INSTANTIATE_REORDER(...)                                                           \
+  template Index IncrementalCholesky<__VA_ARGS__>::collectAffectedTop();                         \
+  template Index IncrementalCholesky<__VA_ARGS__>::affectedTopSize();                            \
+  template void IncrementalCholesky<__VA_ARGS__>::buildCliqueIndex();                            \
+  template Status IncrementalCholesky<__VA_ARGS__>::orderAffectedTop(ColamdOrdering&,            \
+                                                                     const Index*, Index);       \
+  template Status IncrementalCholesky<__VA_ARGS__>::buildReorderedStructure(                     \
+      Index, const InformationSource<__VA_ARGS__>&, const Index*, const Index*);                 \
+  template void IncrementalCholesky<__VA_ARGS__>::addOldClique(Index);                           \
+  template Status IncrementalCholesky<__VA_ARGS__>::factorizeReordered(                          \
+      const InformationSource<__VA_ARGS__>&, ColamdOrdering&, const Index*, Index, const Index*, \
+      Index*, Index*);                                                                           \
+  template void IncrementalCholesky<__VA_ARGS__>::commitReordered();
 LSLAM_INSTANTIATE_REORDER(2)
 LSLAM_INSTANTIATE_REORDER(3)
 LSLAM_INSTANTIATE_REORDER(6)
+LSLAM_INSTANTIATE_REORDER(3, 2)
+LSLAM_INSTANTIATE_REORDER(6, 3)
 #undef LSLAM_INSTANTIATE_REORDER
 
 }  // namespace lslam

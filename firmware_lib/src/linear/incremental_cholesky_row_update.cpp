@@ -119,8 +119,8 @@ bool triangularizeRows(const Eigen::Matrix<double, D, D>& l, Eigen::Matrix<doubl
 }  // namespace
 
 // The factor's column positions, ascending, to `pattern`, with its blocks in w.
-template <int D>
-void IncrementalCholesky<D>::loadFactorRows(const FactorRows& factor, Index* pattern, Block* w) {
+template <int... S>
+void IncrementalCholesky<S...>::loadFactorRows(const FactorRows& factor, Index* pattern, Block* w) {
   for (Index i = 0; i < factor.count; ++i) {
     const Index p = factor.positions[i];
     LSLAM_ASSERT(p >= 0 && p < staged_columns_);
@@ -135,8 +135,8 @@ void IncrementalCholesky<D>::loadFactorRows(const FactorRows& factor, Index* pat
   }
 }
 
-template <int D>
-Status IncrementalCholesky<D>::addFactorRows(const FactorRows& factor) {
+template <int... S>
+Status IncrementalCholesky<S...>::addFactorRows(const FactorRows& factor) {
   LSLAM_ASSERT(in_update_ && !full_ && factor.count > 0);
   if (row_update_mark_ == 0) row_update_mark_ = nextMark();
   Index* pattern = a_.scratch;
@@ -152,8 +152,8 @@ Status IncrementalCholesky<D>::addFactorRows(const FactorRows& factor) {
 // read, reflected and staged once, at about 1.6x the work of one factor's pass instead of 2x
 // (plus a second column setup). Loop-closure steps often add two closures whose paths meet low in
 // the dense top.
-template <int D>
-Status IncrementalCholesky<D>::addFactorRows(const FactorRows& first, const FactorRows& second) {
+template <int... S>
+Status IncrementalCholesky<S...>::addFactorRows(const FactorRows& first, const FactorRows& second) {
   LSLAM_ASSERT(in_update_ && !full_ && first.count > 0 && second.count > 0);
   if (row_update_mark_ == 0) row_update_mark_ = nextMark();
   Index* pattern_first = a_.scratch;
@@ -186,10 +186,10 @@ Status IncrementalCholesky<D>::addFactorRows(const FactorRows& first, const Fact
 }
 
 // Rotates the columns from rest[0] up the path to its root (see rotateNextColumn).
-template <int D>
+template <int... S>
 template <int M>
-Status IncrementalCholesky<D>::rotateToRoot(const Index* rest, Index rest_size, Block* const* w,
-                                            Vector* rhs) {
+Status IncrementalCholesky<S...>::rotateToRoot(const Index* rest, Index rest_size, Block* const* w,
+                                               Vector* rhs) {
   while (rest_size > 0) {
     const Status s = rotateNextColumn<M>(rest, rest_size, w, rhs);
     if (s != Status::Ok) return s;
@@ -200,10 +200,10 @@ Status IncrementalCholesky<D>::rotateToRoot(const Index* rest, Index rest_size, 
 // Rotates the column rest[0] with the rows rest[1 ..] (see rowUpdateColumn), then moves rest on to
 // that column's structure beyond it: the rows still to absorb, whose smallest is the updated
 // parent.
-template <int D>
+template <int... S>
 template <int M>
-Status IncrementalCholesky<D>::rotateNextColumn(const Index*& rest, Index& rest_size,
-                                                Block* const* w, Vector* rhs) {
+Status IncrementalCholesky<S...>::rotateNextColumn(const Index*& rest, Index& rest_size,
+                                                   Block* const* w, Vector* rhs) {
   const Index k = rest[0];
   const Status s = rowUpdateColumn<M>(k, rest + 1, rest_size - 1, w, rhs);
   if (s != Status::Ok) return s;
@@ -214,9 +214,9 @@ Status IncrementalCholesky<D>::rotateNextColumn(const Index*& rest, Index& rest_
 
 // The union of two ascending row lists to `united`. A row only one of them holds has not been
 // reached by the other factor: that factor's W there is set to zero.
-template <int D>
-Index IncrementalCholesky<D>::uniteRows(const Index* first, Index first_size, const Index* second,
-                                        Index second_size, Index* united) {
+template <int... S>
+Index IncrementalCholesky<S...>::uniteRows(const Index* first, Index first_size,
+                                           const Index* second, Index second_size, Index* united) {
   Index i = 0;
   Index j = 0;
   Index size = 0;
@@ -248,10 +248,10 @@ Index IncrementalCholesky<D>::uniteRows(const Index* first, Index first_size, co
 // w[m]). Writes the updated column to the pool tail with structure old rows + pattern (or, when
 // this update staged it already and its rows cover the pattern, where it is), and leaves the
 // rows' transformed blocks in w for the parent.
-template <int D>
+template <int... S>
 template <int M>
-Status IncrementalCholesky<D>::rowUpdateColumn(Index k, const Index* pattern, Index pattern_size,
-                                               Block* const* w, Vector* rhs) {
+Status IncrementalCholesky<S...>::rowUpdateColumn(Index k, const Index* pattern, Index pattern_size,
+                                                  Block* const* w, Vector* rhs) {
   const bool staged = a_.mark[k] == row_update_mark_;
   const bool committed = !staged && k < n_;
   const Index old_start = staged ? a_.staged_start[k] : a_.start[k];
@@ -330,10 +330,11 @@ Status IncrementalCholesky<D>::rowUpdateColumn(Index k, const Index* pattern, In
 
 // W_m(r) = 0 for the rows r = rows[b], b >= 1, that the pattern (ascending) does not hold: the
 // factor's rows have not reached them. Returns whether the rows hold every pattern row.
-template <int D>
+template <int... S>
 template <int M>
-bool IncrementalCholesky<D>::zeroUnreachedRows(const Index* rows, Index size, const Index* pattern,
-                                               Index pattern_size, Block* const* w) {
+bool IncrementalCholesky<S...>::zeroUnreachedRows(const Index* rows, Index size,
+                                                  const Index* pattern, Index pattern_size,
+                                                  Block* const* w) {
   Index j = 0;
   bool covered = true;
   for (Index b = 1; b < size; ++b) {
@@ -358,12 +359,12 @@ bool IncrementalCholesky<D>::zeroUnreachedRows(const Index* rows, Index size, co
 // old block's place, or kNoIndex for fill (zero). With zero_unreached, W_m(r) is set to zero for
 // the old rows the pattern does not hold, which the factor's rows have not reached yet (otherwise
 // zeroUnreachedRows did). Returns the column's size.
-template <int D>
+template <int... S>
 template <int M>
-Index IncrementalCholesky<D>::mergeRows(Index k, const Index* old_rows, Index old_size,
-                                        const Index* pattern, Index pattern_size,
-                                        bool zero_unreached, Block* const* w, Index* rows,
-                                        Index* source, Index* kept) {
+Index IncrementalCholesky<S...>::mergeRows(Index k, const Index* old_rows, Index old_size,
+                                           const Index* pattern, Index pattern_size,
+                                           bool zero_unreached, Block* const* w, Index* rows,
+                                           Index* source, Index* kept) {
   rows[0] = k;
   // The common case on a dense top: the pattern repeats the old rows, fill (if any) after them.
   // That run is only compared and copied, and its sources are implied: cheaper per row than the
@@ -411,8 +412,8 @@ Index IncrementalCholesky<D>::mergeRows(Index k, const Index* old_rows, Index ol
   return size;
 }
 
-template <int D>
-Status IncrementalCholesky<D>::finishRowUpdate() {
+template <int... S>
+Status IncrementalCholesky<S...>::finishRowUpdate() {
   LSLAM_ASSERT(in_update_ && !full_);
   for (Index k = n_; k < staged_columns_; ++k) {
     if (row_update_mark_ == 0 || a_.mark[k] != row_update_mark_) {
@@ -426,13 +427,15 @@ Status IncrementalCholesky<D>::finishRowUpdate() {
 
 // The member templates (over M) are instantiated by their uses above; the plain members are
 // instantiated here (only this file sees their definitions).
-#define LSLAM_INSTANTIATE_ROW_UPDATE(D)                                                        \
-  template void IncrementalCholesky<D>::loadFactorRows(const FactorRows&, Index*, Block*);     \
-  template Index IncrementalCholesky<D>::uniteRows(const Index*, Index, const Index*, Index,   \
-                                                   Index*);                                    \
-  template Status IncrementalCholesky<D>::addFactorRows(const FactorRows&);                    \
-  template Status IncrementalCholesky<D>::addFactorRows(const FactorRows&, const FactorRows&); \
-  template Status IncrementalCholesky<D>::finishRowUpdate();
+#define LSLAM_INSTANTIATE_ROW_UPDATE(...)                                                       \
+  template void IncrementalCholesky<__VA_ARGS__>::loadFactorRows(const FactorRows&, Index*,     \
+                                                                 Block*);                       \
+  template Index IncrementalCholesky<__VA_ARGS__>::uniteRows(const Index*, Index, const Index*, \
+                                                             Index, Index*);                    \
+  template Status IncrementalCholesky<__VA_ARGS__>::addFactorRows(const FactorRows&);           \
+  template Status IncrementalCholesky<__VA_ARGS__>::addFactorRows(const FactorRows&,            \
+                                                                  const FactorRows&);           \
+  template Status IncrementalCholesky<__VA_ARGS__>::finishRowUpdate();
 LSLAM_INSTANTIATE_ROW_UPDATE(2)
 LSLAM_INSTANTIATE_ROW_UPDATE(3)
 LSLAM_INSTANTIATE_ROW_UPDATE(6)

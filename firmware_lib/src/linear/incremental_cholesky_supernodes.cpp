@@ -21,8 +21,8 @@ constexpr Index kMaxSupernodeWidth = 8;
 
 }  // namespace
 
-template <int D>
-Status IncrementalCholesky<D>::factorizeBySupernodes() {
+template <int... S>
+Status IncrementalCholesky<S...>::factorizeBySupernodes() {
   for (Index i = 0; i < affected_count_;) {
     const Index first = a_.affected[i];
     const Index last = supernodeEnd(i);
@@ -40,8 +40,8 @@ Status IncrementalCholesky<D>::factorizeBySupernodes() {
 // The last column of the supernode that starts at affected[i]: the chain continues while a
 // column's parent is the next column and its structure is one row longer than the parent's
 // (struct(k) \ {parent} is always within struct(parent), so the two are then equal).
-template <int D>
-Index IncrementalCholesky<D>::supernodeEnd(Index i) const {
+template <int... S>
+Index IncrementalCholesky<S...>::supernodeEnd(Index i) const {
   const Index first = a_.affected[i];
   Index last = first;
   for (; i + 1 < affected_count_ && last - first + 1 < kMaxSupernodeWidth; ++i) {
@@ -59,8 +59,8 @@ Index IncrementalCholesky<D>::supernodeEnd(Index i) const {
 // Column m's update of the chain's later columns m + 1 .. last (its rows 1 .. last - m), as
 // scatter() does it for every row (a function of its own, so that scatter(), also the Cortex-M's
 // path, stays lean). A later column t = m + a holds exactly m's rows from a on.
-template <int D>
-void IncrementalCholesky<D>::scatterWithinSupernode(Index m, Index last) {
+template <int... S>
+void IncrementalCholesky<S...>::scatterWithinSupernode(Index m, Index last) {
   if constexpr (D == 3) {
     const Index* rows = a_.rows + a_.staged_start[m];
     const Block* blocks = a_.blocks + a_.staged_start[m];
@@ -81,8 +81,8 @@ void IncrementalCholesky<D>::scatterWithinSupernode(Index m, Index last) {
 }
 
 // The chain first .. last updates the columns of struct(last) together (see the top).
-template <int D>
-void IncrementalCholesky<D>::scatterFromSupernode(Index first, Index last) {
+template <int... S>
+void IncrementalCholesky<S...>::scatterFromSupernode(Index first, Index last) {
   if constexpr (D == 3) {
     const Index width = last - first + 1;
     const Index* out_rows = a_.rows + a_.staged_start[last] + 1;
@@ -114,11 +114,11 @@ void IncrementalCholesky<D>::scatterFromSupernode(Index first, Index last) {
   }
 }
 
-#define LSLAM_INSTANTIATE_SUPERNODES(D)                                       \
-  template Status IncrementalCholesky<D>::factorizeBySupernodes();            \
-  template Index IncrementalCholesky<D>::supernodeEnd(Index) const;           \
-  template void IncrementalCholesky<D>::scatterWithinSupernode(Index, Index); \
-  template void IncrementalCholesky<D>::scatterFromSupernode(Index, Index);
+#define LSLAM_INSTANTIATE_SUPERNODES(...)                                               \
+  template Status IncrementalCholesky<__VA_ARGS__>::factorizeBySupernodes();            \
+  template Index IncrementalCholesky<__VA_ARGS__>::supernodeEnd(Index) const;           \
+  template void IncrementalCholesky<__VA_ARGS__>::scatterWithinSupernode(Index, Index); \
+  template void IncrementalCholesky<__VA_ARGS__>::scatterFromSupernode(Index, Index);
 LSLAM_INSTANTIATE_SUPERNODES(2)
 LSLAM_INSTANTIATE_SUPERNODES(3)
 LSLAM_INSTANTIATE_SUPERNODES(6)

@@ -35,11 +35,20 @@
 // every later use (forward and back substitution) needs the inverse; then the blocks L(r, k) for
 // the rows r > k of its structure, rows ascending. The first of those rows is k's parent in the
 // elimination tree.
+//
+// Block sizes (block_sizes.h). With one size D, the pool is an array of D x D blocks. With mixed
+// sizes, column k is as wide as its variable and block (r, k) is size(r) x size(k): the pool is an
+// array of doubles, each block slot has its offset there and its row size (the size of slot 0 is
+// the column's own), and a column's values are one contiguous range (its slots may point into it
+// in any order). Per-column arrays (d, the diagonal, the solution) hold the largest size, a
+// column using its top-left part. The row update and the supernode kernels are for one block size
+// only (not compiled for mixed sizes): a mixed model updates by recomputation (factorize).
 #include <cstddef>
 #include <cstdint>
 
 #include "lslam/eigen.h"
 #include "lslam/linear/block_kernels.h"
+#include "lslam/linear/block_sizes.h"
 #include "lslam/linear/colamd_ordering.h"
 #include "lslam/linear/index.h"
 #include "lslam/linear/information_source.h"
@@ -50,8 +59,9 @@ namespace lslam {
 // The arrays an IncrementalCholesky works in, owned by whoever holds the memory (see
 // StaticCholeskyStorage). Sizes: pool arrays max_blocks; column arrays max_columns; the etree
 // child lists max_columns + 1 (the last entry is a virtual root above every tree of the forest).
-template <int D>
+template <int... S>
 struct CholeskyArrays {
+  static constexpr int D = BlockSizes<S...>::kMax;
   using Block = Eigen::Matrix<double, D, D>;
   using Vector = Eigen::Matrix<double, D, 1>;
 
@@ -79,6 +89,14 @@ struct CholeskyArrays {
   Index* child_head = nullptr;
   Index* child_next = nullptr;
   Index* row_list = nullptr;  // also: the row update's block sources (see mergeRows)
+  // Mixed block sizes only (one size: unused, blocks holds the pool). values: max_values doubles;
+  // offset and row_size: per pool slot; variable_kind: the caller's kind of each variable (an
+  // index into the size list), read when a column's structure is built.
+  Index max_values = 0;
+  double* values = nullptr;
+  Index* offset = nullptr;
+  std::uint8_t* row_size = nullptr;
+  const std::uint8_t* variable_kind = nullptr;
   Index* scratch = nullptr;
   // The reordered update (see factorizeReordered): old position -> reordered position, the affected
   // columns in their fresh order, each affected column's rank in the affected set, and the cliques
@@ -104,19 +122,23 @@ struct FactorizationStats {
   std::int64_t block_products = 0;  // D x D block products of the column updates
 };
 
-template <int D>
+template <int... S>
 class IncrementalCholesky {
  public:
+  using Sizes = BlockSizes<S...>;
+  static constexpr int D = Sizes::kMax;  // the largest block size
+  static constexpr bool kUniform = Sizes::kUniform;
   using Block = Eigen::Matrix<double, D, D>;
   using Vector = Eigen::Matrix<double, D, 1>;
 
-  explicit IncrementalCholesky(const CholeskyArrays<D>& arrays);
+  explicit IncrementalCholesky(const CholeskyArrays<S...>& arrays);
 
   Index columns() const { return n_; }
   Index maxColumns() const { return a_.max_columns; }
   Index liveBlocks() const { return live_blocks_; }
   Index poolEnd() const { return pool_end_; }
   Index poolCapacity() const { return a_.max_blocks; }
+  Index valuesEnd() const { return value_end_; }  // mixed sizes: doubles of the pool in use
   // A full refactorization's columns wait for their layout (done by the next beginUpdate() or
   // compact()); the solve meanwhile reads them in column order.
   bool layoutPending() const { return layout_pending_; }
@@ -136,7 +158,7 @@ class IncrementalCholesky {
   void markStructureChanged(Index column);
   // Recomputes every column on the etree paths from the changed ones to the root, and their part
   // of d (L d = eta). variable_at[k] is the variable at column k, position_of its inverse.
-  [[nodiscard]] Status factorize(const InformationSource<D>& source, const Index* variable_at,
+  [[nodiscard]] Status factorize(const InformationSource<S...>& source, const Index* variable_at,
                                  const Index* position_of);
   void commit();
   void rollback();
@@ -158,7 +180,7 @@ class IncrementalCholesky {
   // Returns WorkspaceExhausted when the ordering workspace is too small (nothing changed: roll
   // back and take the plain update).
   Index affectedTopSize();
-  [[nodiscard]] Status factorizeReordered(const InformationSource<D>& source,
+  [[nodiscard]] Status factorizeReordered(const InformationSource<S...>& source,
                                           ColamdOrdering& ordering, const Index* last,
                                           Index num_last, const Index* variable_at,
                                           Index* new_variable_at, Index* new_position_of);
@@ -212,25 +234,65 @@ class IncrementalCholesky {
   // Read access to a committed column: rows[0] == k, blocks[0] == L(k,k)^-1.
   Index columnSize(Index k) const { return a_.count[k]; }
   const Index* columnRows(Index k) const { return a_.rows + a_.start[k]; }
-  const Block* columnBlocks(Index k) const { return a_.blocks + a_.start[k]; }
+  const Block* columnBlocks(Index k) const {
+    static_assert(kUniform, "mixed sizes: read blocks with blockValues()");
+    return a_.blocks + a_.start[k];
+  }
+  // The width of column k (its variable's size) and, for mixed sizes, block i of column k as
+  // size(row i) x width doubles, column-major.
+  int columnWidth(Index k) const { return slotSize(a_.start[k]); }
+  const double* blockValues(Index k, Index i) const { return slotValues(a_.start[k] + i); }
   Index parent(Index k) const { return a_.count[k] > 1 ? a_.rows[a_.start[k] + 1] : kNoIndex; }
   const Vector& rhs(Index k) const { return a_.d[k]; }
   // The solve's copy of x(k) (see backSubstitute).
   Vector solutionAt(Index k) const { return solutionEntry(k); }
 
  private:
+  // The row size of a pool slot and its values (see "Block sizes" above).
+  int slotSize(Index slot) const {
+    if constexpr (kUniform) {
+      static_cast<void>(slot);
+      return D;
+    } else {
+      return a_.row_size[slot];
+    }
+  }
+  double* slotValues(Index slot) {
+    if constexpr (kUniform) {
+      return a_.blocks[slot].data();
+    } else {
+      return a_.values + a_.offset[slot];
+    }
+  }
+  const double* slotValues(Index slot) const {
+    if constexpr (kUniform) {
+      return a_.blocks[slot].data();
+    } else {
+      return a_.values + a_.offset[slot];
+    }
+  }
+  // The size of the variable at column position k of the order the update stages.
+  int positionSize(Index k) const {
+    if constexpr (kUniform) {
+      static_cast<void>(k);
+      return D;
+    } else {
+      return Sizes::sizeOfKind(a_.variable_kind[staging_variable_at_[k]]);
+    }
+  }
+  Index columnValues(Index start, Index count) const;
   void queue(Index column);
   Index popSmallest();
-  [[nodiscard]] Status buildStructure(Index k, const InformationSource<D>& source,
+  [[nodiscard]] Status buildStructure(Index k, const InformationSource<S...>& source,
                                       const Index* variable_at, const Index* position_of);
   Index addChildrenFill(Index k, std::uint32_t id, Index* rows, Index count);
   [[nodiscard]] Status stageStructure(Index k, Index* rows, Index count);
   bool keepsStructure(Index k);
   [[nodiscard]] Status stageOldStructure(Index k);
   void linkStagedChild(Index k, Index parent);
-  void startColumn(Index k, const InformationSource<D>& source, const Index* variable_at,
+  void startColumn(Index k, const InformationSource<S...>& source, const Index* variable_at,
                    const Index* position_of);
-  void assembleAllColumns(const InformationSource<D>& source, const Index* variable_at,
+  void assembleAllColumns(const InformationSource<S...>& source, const Index* variable_at,
                           const Index* position_of);
   [[nodiscard]] Status finishColumn(Index k);
   void scatter(const Index* rows, const Block* blocks, Index size, const Vector& d, double sign);
@@ -246,7 +308,7 @@ class IncrementalCholesky {
   void buildCliqueIndex();
   [[nodiscard]] Status orderAffectedTop(ColamdOrdering& ordering, const Index* last,
                                         Index num_last);
-  [[nodiscard]] Status buildReorderedStructure(Index k, const InformationSource<D>& source,
+  [[nodiscard]] Status buildReorderedStructure(Index k, const InformationSource<S...>& source,
                                                const Index* new_variable_at,
                                                const Index* new_position_of);
   void addOldClique(Index j);
@@ -262,7 +324,33 @@ class IncrementalCholesky {
   Eigen::Map<const Vector> solutionEntry(Index k) const {
     return Eigen::Map<const Vector>(a_.solution + detail::kSolutionStride<D> * k);
   }
-  Index packColumns(Index* columns, Index num, Index* start, const Index* count, Index write);
+  struct PoolEnd {
+    Index blocks;
+    Index values;
+  };
+  PoolEnd packColumns(Index* columns, Index num, Index* start, const Index* count, PoolEnd write);
+  // Column k's update of the later columns (scatter) for either block layout, from its slots.
+  void scatterSlots(Index start, Index count, const Vector& d, double sign);
+  // x(k) of the back-substitution (detail::solveColumnInPlace for one size); whether it moved by
+  // more than tolerance.
+  bool solveColumn(Index k, double tolerance, Vector& delta);
+  // --- mixed block sizes (incremental_cholesky_mixed.cpp) ---
+  void startMixedColumn(Index k, const InformationSource<S...>& source, const Index* variable_at,
+                        const Index* position_of);
+  void assembleMixedColumn(Index k, const InformationSource<S...>& source, const Index* variable_at,
+                           const Index* position_of, LaterDiagonals<S...>& later);
+  [[nodiscard]] Status finishMixedColumn(Index k);
+  void scatterMixed(Index start, Index count, const Vector& d, double sign);
+  bool solveMixedColumn(Index k, double tolerance, Vector& delta);
+  void addMembersOfOldClique(Index j, const Index* order);
+  template <int R, int C>
+  Eigen::Matrix<double, R, C> member(const Eigen::Matrix<double, C, C>& l_jj, Index start,
+                                     Index i) const;
+  // Moves the slots [from, from + count) of one column, with their values, to `write` (towards
+  // the front); returns the end of the values written.
+  Index moveColumn(Index from, Index count, PoolEnd write);
+  // Copies the values of slots [from, from + count) over those of [to, to + count) (equal sizes).
+  void copyColumnValues(Index from, Index count, Index to);
   void loadFactorRows(const FactorRows& factor, Index* pattern, Block* w);
   template <int M>
   [[nodiscard]] Status rotateToRoot(const Index* rest, Index rest_size, Block* const* w,
@@ -283,8 +371,11 @@ class IncrementalCholesky {
                   Index pattern_size, bool zero_unreached, Block* const* w, Index* rows,
                   Index* source, Index* kept);
 
-  CholeskyArrays<D> a_;
+  CholeskyArrays<S...> a_;
   Index n_ = 0;
+  Index value_end_ = 0;   // mixed sizes: the value pool's end, as pool_end_ for slots
+  Index value_mark_ = 0;  // value_end_ when the update began
+  const Index* staging_variable_at_ = nullptr;  // the order positionSize() reads
   Index staged_columns_ = 0;
   Index pool_end_ = 0;
   Index pool_mark_ = 0;
@@ -306,19 +397,38 @@ class IncrementalCholesky {
 };
 
 // Memory for an IncrementalCholesky, all of it inside the object: no allocation anywhere.
-template <int D, Index MaxColumns, Index MaxBlocks>
-class StaticCholeskyStorage {
+// Sizes is a BlockSizes<...>. With one size, the pool is MaxBlocks blocks; with mixed sizes it is
+// MaxValues doubles (plus an offset and a row size per slot), and variable_kind must be set on
+// the arrays (the caller's kinds) before the factor is built.
+template <class Sizes, Index MaxColumns, Index MaxBlocks, Index MaxValues = 0>
+class StaticCholeskyStorageFor;
+
+template <int... S, Index MaxColumns, Index MaxBlocks, Index MaxValues>
+class StaticCholeskyStorageFor<BlockSizes<S...>, MaxColumns, MaxBlocks, MaxValues> {
  public:
+  static constexpr int D = BlockSizes<S...>::kMax;
+  static constexpr bool kUniform = BlockSizes<S...>::kUniform;
   using Block = Eigen::Matrix<double, D, D>;
   using Vector = Eigen::Matrix<double, D, 1>;
   static_assert(MaxColumns > 0 && MaxBlocks >= MaxColumns, "capacities");
+  static_assert(kUniform == (MaxValues == 0), "a value pool for mixed block sizes only");
+  // Storage of one size for the arrays a size does not use (one element, never read).
+  static constexpr Index kPoolBlocks = kUniform ? MaxBlocks : 1;
+  static constexpr Index kMixedBlocks = kUniform ? 1 : MaxBlocks;
+  static constexpr Index kUpdateRows = kUniform ? MaxColumns : 1;
 
-  CholeskyArrays<D> arrays() {
-    CholeskyArrays<D> a;
+  CholeskyArrays<S...> arrays() {
+    CholeskyArrays<S...> a;
     a.max_columns = MaxColumns;
     a.max_blocks = MaxBlocks;
     a.rows = rows_;
-    a.blocks = blocks_;
+    a.blocks = kUniform ? blocks_ : nullptr;
+    if constexpr (!kUniform) {
+      a.max_values = MaxValues;
+      a.values = values_;
+      a.offset = offset_;
+      a.row_size = row_size_;
+    }
     a.start = start_;
     a.count = count_;
     a.diagonal = diagonal_;
@@ -345,14 +455,17 @@ class StaticCholeskyStorage {
     a.rank_of = rank_of_;
     a.clique_start = clique_start_;
     a.clique_entry = clique_entry_;
-    a.update_rows = update_rows_;
-    a.second_update_rows = second_update_rows_;
+    a.update_rows = kUniform ? update_rows_ : nullptr;
+    a.second_update_rows = kUniform ? second_update_rows_ : nullptr;
     a.solution = solution_;
     return a;
   }
 
  private:
-  Block blocks_[MaxBlocks];
+  Block blocks_[kPoolBlocks];
+  double values_[kUniform ? 1 : MaxValues];
+  Index offset_[kMixedBlocks];
+  std::uint8_t row_size_[kMixedBlocks];
   Index rows_[MaxBlocks];
   Index start_[MaxColumns];
   Index count_[MaxColumns];
@@ -380,13 +493,17 @@ class StaticCholeskyStorage {
   Index rank_of_[MaxColumns];
   Index clique_start_[MaxColumns + 1];
   Index clique_entry_[MaxBlocks];
-  Block update_rows_[MaxColumns];
-  Block second_update_rows_[MaxColumns];
+  Block update_rows_[kUpdateRows];
+  Block second_update_rows_[kUpdateRows];
   alignas(32) double solution_[MaxColumns * detail::kSolutionStride<D>];
 };
 
-// Block sizes 2, 3 and 6 are compiled once each: every member defined out of the class is
-// instantiated, member by member, in the source file that defines it
+// One block size D: the storage of IncrementalCholesky<D>.
+template <int D, Index MaxColumns, Index MaxBlocks>
+using StaticCholeskyStorage = StaticCholeskyStorageFor<BlockSizes<D>, MaxColumns, MaxBlocks>;
+
+// Block sizes <2>, <3>, <6>, <3, 2> and <6, 3> are compiled once each: every member defined out of
+// the class is instantiated, member by member, in the source file that defines it
 // (src/linear/incremental_cholesky*.cpp); the members defined in the class body are inline and
 // instantiated where they are used. No `extern template class` here: with it, GCC at -O0 expects
 // those inline members from an explicit instantiation of the whole class, which the sources do
