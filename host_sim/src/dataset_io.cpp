@@ -20,12 +20,18 @@
 #include <utility>
 
 #include "lslam/factors/information.h"
+#include "record_parsing.h"
 
 namespace lslam::sim {
 
 namespace {
 
-constexpr std::int64_t kMaxId = std::numeric_limits<std::int32_t>::max();  // 2^31 - 1
+using parsing::appendNumber;
+using parsing::FieldParser;
+using parsing::formatDouble;
+using parsing::kMaxId;
+using parsing::show;
+using parsing::tokenize;
 
 // The record kinds the readers know. Edge2 is resolved to TORO or iSAM per file.
 enum class Tag { VertexSE2, EdgeSE2, Fix, Vertex2, Edge2, Odometry, Other };
@@ -44,8 +50,6 @@ bool contains(std::string_view s, std::string_view part) {
   return s.find(part) != std::string_view::npos;
 }
 
-std::string show(std::string_view token);
-
 // Reason for a tag that is not a supported 2D pose record (the tag escaped: it may be binary).
 std::string unsupportedReason(std::string_view tag) {
   const std::string quoted = show(tag);
@@ -61,43 +65,6 @@ std::string unsupportedReason(std::string_view tag) {
          " (expected g2o VERTEX_SE2/EDGE_SE2/FIX, TORO VERTEX2/EDGE2 or iSAM EDGE2/ODOMETRY)";
 }
 
-bool isBlank(char c) {
-  return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\v' || c == '\f';
-}
-
-std::vector<std::string_view> tokenize(std::string_view s) {
-  std::vector<std::string_view> out;
-  std::size_t i = 0;
-  while (i < s.size()) {
-    while (i < s.size() && isBlank(s[i])) ++i;
-    if (i >= s.size()) break;
-    const std::size_t start = i;
-    while (i < s.size() && !isBlank(s[i])) ++i;
-    out.push_back(s.substr(start, i - start));
-  }
-  return out;
-}
-
-// Printable form of a token for an error message (long or binary tokens shortened/escaped).
-std::string show(std::string_view token) {
-  std::string out = "'";
-  const std::size_t n = std::min<std::size_t>(token.size(), 40);
-  for (std::size_t i = 0; i < n; ++i) {
-    const auto c = static_cast<unsigned char>(token[i]);
-    if (c >= 0x20 && c < 0x7f) {
-      out += static_cast<char>(c);
-    } else {
-      static const char* const kHex = "0123456789abcdef";
-      out += "\\x";
-      out += kHex[c >> 4];
-      out += kHex[c & 0xf];
-    }
-  }
-  if (token.size() > n) out += "...";
-  out += "'";
-  return out;
-}
-
 // One significant line of the file.
 struct Record {
   std::size_t line = 0;
@@ -105,92 +72,10 @@ struct Record {
   Tag tag = Tag::Other;
 };
 
-// Parses the fields of one record; every failure names the file and the line.
-class FieldParser {
- public:
-  FieldParser(const std::string& file, const Record& r) : file_(file), r_(r) {}
-
-  [[noreturn]] void fail(const std::string& reason) const {
-    throw DatasetError(file_, r_.line, reason);
-  }
-
-  void expectFields(std::size_t n) const {
-    const std::size_t got = r_.tokens.size();
-    if (got == n) return;
-    const std::string tag(r_.tokens[0]);
-    if (got < n) {
-      fail(tag + ": expected " + std::to_string(n) + " fields, got " + std::to_string(got) +
-           " (truncated line?)");
-    }
-    fail(tag + ": trailing garbage " + show(r_.tokens[n]) + " (expected " + std::to_string(n) +
-         " fields, got " + std::to_string(got) + ")");
-  }
-
-  std::int64_t id(std::size_t i, const char* field) const {
-    const std::string_view t = r_.tokens[i];
-    std::int64_t v = 0;
-    const char* end = t.data() + t.size();
-    const auto res = std::from_chars(t.data(), end, v);
-    if (res.ec == std::errc::result_out_of_range && res.ptr == end) {
-      fail(where(field) + ": id out of range " + show(t) + " (ids must be in 0.." +
-           std::to_string(kMaxId) + ")");
-    }
-    if (res.ec != std::errc() || res.ptr != end) {
-      fail(where(field) + ": " + show(t) + " is not an integer id");
-    }
-    if (v < 0 || v > kMaxId) {
-      fail(where(field) + ": id out of range " + show(t) + " (ids must be in 0.." +
-           std::to_string(kMaxId) + ")");
-    }
-    return v;
-  }
-
-  double number(std::size_t i, const char* field) const {
-    const std::string_view t = r_.tokens[i];
-    std::string_view body = t;
-    // An explicit '+' is accepted (std::from_chars does not take it), but only once.
-    if (!body.empty() && body[0] == '+') {
-      body.remove_prefix(1);
-      if (body.empty() || body[0] == '+' || body[0] == '-') {
-        fail(where(field) + ": " + show(t) + " is not a number");
-      }
-    }
-    double v = 0.0;
-    const char* end = body.data() + body.size();
-    const auto res = std::from_chars(body.data(), end, v, std::chars_format::general);
-    if (res.ptr != end || res.ec == std::errc::invalid_argument) {
-      fail(where(field) + ": " + show(t) + " is not a number");
-    }
-    if (res.ec == std::errc::result_out_of_range) {
-      fail(where(field) + ": value " + show(t) + " is out of the range of a double");
-    }
-    if (res.ec != std::errc()) fail(where(field) + ": " + show(t) + " is not a number");
-    if (!std::isfinite(v)) {
-      fail(where(field) + ": non-finite value " + show(t));
-    }
-    return v;
-  }
-
- private:
-  // "EDGE_SE2 field dx"
-  std::string where(const char* field) const {
-    return std::string(r_.tokens[0]) + " field " + field;
-  }
-
-  const std::string& file_;
-  const Record& r_;
-};
-
 // The information must be symmetric positive definite (the solvers factorize it): the solver's
 // own check, so that the reader rejects, with its line, exactly what the solver would.
 bool isPositiveDefinite(const Eigen::Matrix3d& m) {
   return lslam::checkInformation(m) == lslam::Status::Ok;
-}
-
-std::string formatDouble(double v) {
-  std::array<char, 64> buf{};
-  const auto res = std::to_chars(buf.data(), buf.data() + buf.size(), v);
-  return std::string(buf.data(), res.ptr);
 }
 
 std::string smallestEigenvalueText(const Eigen::Matrix3d& m) {
@@ -205,7 +90,7 @@ constexpr std::array<const char*, 6> kInfoFieldsToro = {"inf_ff", "inf_fs", "inf
 constexpr std::array<const char*, 6> kInfoFieldsIsam = {"R11", "R12", "R13", "R22", "R23", "R33"};
 
 Vertex2D parseVertex(const std::string& file, const Record& r) {
-  const FieldParser p(file, r);
+  const FieldParser p(file, r.line, r.tokens);
   p.expectFields(5);
   Vertex2D v;
   v.id = p.id(1, "id");
@@ -218,7 +103,7 @@ Vertex2D parseVertex(const std::string& file, const Record& r) {
 
 // EDGE_SE2 / EDGE2 / ODOMETRY: i j dx dy dth + 6 matrix entries, interpreted per `format`.
 Edge2D parseEdge(const std::string& file, const Record& r, DatasetFormat format) {
-  const FieldParser p(file, r);
+  const FieldParser p(file, r.line, r.tokens);
   p.expectFields(12);
   Edge2D e;
   e.from = p.id(1, "from");
@@ -420,7 +305,7 @@ Dataset2D parseImpl(std::istream& in, const std::string& name,
         d.edges.push_back(parseEdge(name, r, f));
         break;
       case Tag::Fix: {
-        const FieldParser p(name, r);
+        const FieldParser p(name, r.line, r.tokens);
         if (r.tokens.size() < 2) p.fail("FIX: expected at least 2 fields, got 1 (no id)");
         for (std::size_t k = 1; k < r.tokens.size(); ++k) {
           d.fixed.push_back(FixedPose{p.id(k, "id"), r.line});
@@ -451,12 +336,6 @@ Dataset2D readImpl(const std::string& path, std::optional<DatasetFormat> forced)
 }
 
 // ---- writer ----
-
-void appendNumber(std::string& out, double v) {
-  std::array<char, 64> buf{};
-  const auto res = std::to_chars(buf.data(), buf.data() + buf.size(), v);  // shortest round trip
-  out.append(buf.data(), res.ptr);
-}
 
 void appendId(std::string& out, std::int64_t v) {
   out += std::to_string(v);

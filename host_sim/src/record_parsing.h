@@ -1,0 +1,152 @@
+#pragma once
+// Private to host_sim/src: the line tokenizer and the strict field parsing shared by the dataset
+// readers (dataset_io.cpp, model_dataset_io.cpp), and the shortest round-trip number formatting
+// shared by their writers. Every parse failure throws DatasetError(file, line, reason).
+#include <algorithm>
+#include <array>
+#include <charconv>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <string_view>
+#include <system_error>
+#include <vector>
+
+#include "host_sim/dataset.h"
+
+namespace lslam::sim::parsing {
+
+inline constexpr std::int64_t kMaxId = std::numeric_limits<std::int32_t>::max();  // 2^31 - 1
+
+inline bool isBlank(char c) {
+  return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\v' || c == '\f';
+}
+
+inline std::vector<std::string_view> tokenize(std::string_view s) {
+  std::vector<std::string_view> out;
+  std::size_t i = 0;
+  while (i < s.size()) {
+    while (i < s.size() && isBlank(s[i])) ++i;
+    if (i >= s.size()) break;
+    const std::size_t start = i;
+    while (i < s.size() && !isBlank(s[i])) ++i;
+    out.push_back(s.substr(start, i - start));
+  }
+  return out;
+}
+
+// Printable form of a token for an error message (long or binary tokens shortened/escaped).
+inline std::string show(std::string_view token) {
+  std::string out = "'";
+  const std::size_t n = std::min<std::size_t>(token.size(), 40);
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto c = static_cast<unsigned char>(token[i]);
+    if (c >= 0x20 && c < 0x7f) {
+      out += static_cast<char>(c);
+    } else {
+      static const char* const kHex = "0123456789abcdef";
+      out += "\\x";
+      out += kHex[c >> 4];
+      out += kHex[c & 0xf];
+    }
+  }
+  if (token.size() > n) out += "...";
+  out += "'";
+  return out;
+}
+
+// The shortest text that reads back to the identical double (std::to_chars).
+inline void appendNumber(std::string& out, double v) {
+  std::array<char, 64> buf{};
+  const auto res = std::to_chars(buf.data(), buf.data() + buf.size(), v);
+  out.append(buf.data(), res.ptr);
+}
+
+inline std::string formatDouble(double v) {
+  std::string out;
+  appendNumber(out, v);
+  return out;
+}
+
+// Parses the fields of one record (tokens[0] is its tag); every failure names the file and line.
+class FieldParser {
+ public:
+  FieldParser(const std::string& file, std::size_t line,
+              const std::vector<std::string_view>& tokens)
+      : file_(file), line_(line), tokens_(tokens) {}
+
+  [[noreturn]] void fail(const std::string& reason) const {
+    throw DatasetError(file_, line_, reason);
+  }
+
+  void expectFields(std::size_t n) const {
+    const std::size_t got = tokens_.size();
+    if (got == n) return;
+    const std::string tag(tokens_[0]);
+    if (got < n) {
+      fail(tag + ": expected " + std::to_string(n) + " fields, got " + std::to_string(got) +
+           " (truncated line?)");
+    }
+    fail(tag + ": trailing garbage " + show(tokens_[n]) + " (expected " + std::to_string(n) +
+         " fields, got " + std::to_string(got) + ")");
+  }
+
+  // An integer id in 0..kMaxId.
+  std::int64_t id(std::size_t i, const char* field) const {
+    const std::string_view t = tokens_[i];
+    std::int64_t v = 0;
+    const char* end = t.data() + t.size();
+    const auto res = std::from_chars(t.data(), end, v);
+    if (res.ec == std::errc::result_out_of_range && res.ptr == end) {
+      fail(where(field) + ": id out of range " + show(t) + " (ids must be in 0.." +
+           std::to_string(kMaxId) + ")");
+    }
+    if (res.ec != std::errc() || res.ptr != end) {
+      fail(where(field) + ": " + show(t) + " is not an integer id");
+    }
+    if (v < 0 || v > kMaxId) {
+      fail(where(field) + ": id out of range " + show(t) + " (ids must be in 0.." +
+           std::to_string(kMaxId) + ")");
+    }
+    return v;
+  }
+
+  // A finite double; the whole token must parse ("1.5abc", "0x10", "nan", "1e400" are errors).
+  double number(std::size_t i, const char* field) const {
+    const std::string_view t = tokens_[i];
+    std::string_view body = t;
+    // An explicit '+' is accepted (std::from_chars does not take it), but only once.
+    if (!body.empty() && body[0] == '+') {
+      body.remove_prefix(1);
+      if (body.empty() || body[0] == '+' || body[0] == '-') {
+        fail(where(field) + ": " + show(t) + " is not a number");
+      }
+    }
+    double v = 0.0;
+    const char* end = body.data() + body.size();
+    const auto res = std::from_chars(body.data(), end, v, std::chars_format::general);
+    if (res.ptr != end || res.ec == std::errc::invalid_argument) {
+      fail(where(field) + ": " + show(t) + " is not a number");
+    }
+    if (res.ec == std::errc::result_out_of_range) {
+      fail(where(field) + ": value " + show(t) + " is out of the range of a double");
+    }
+    if (res.ec != std::errc()) fail(where(field) + ": " + show(t) + " is not a number");
+    if (!std::isfinite(v)) {
+      fail(where(field) + ": non-finite value " + show(t));
+    }
+    return v;
+  }
+
+ private:
+  // "EDGE_SE2 field dx"
+  std::string where(const char* field) const { return std::string(tokens_[0]) + " field " + field; }
+
+  const std::string& file_;
+  std::size_t line_;
+  const std::vector<std::string_view>& tokens_;
+};
+
+}  // namespace lslam::sim::parsing
