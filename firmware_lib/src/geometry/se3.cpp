@@ -194,4 +194,9 @@ Vec6 SE3::localCoordinates(const SE3& b, Mat6* J_t_a, Mat6* J_t_b) const noexcep
   return tau;
 }
 
+Status validateValue(const SE3& x) noexcept {
+  if (!x.translation().allFinite()) return Status::NonFiniteInput;
+  return validateQuaternion(x.rotation().quaternion());
+}
+
 }  // namespace lslam

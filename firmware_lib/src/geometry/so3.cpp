@@ -69,9 +69,7 @@ Mat3 skew(const Vec3& v) noexcept {
   return m;
 }
 
-SO3::SO3(const Eigen::Quaterniond& q) noexcept : q_(q) {
-  LSLAM_DEBUG_ASSERT(validateQuaternion(q) == Status::Ok);
-}
+SO3::SO3(const Eigen::Quaterniond& q) noexcept : q_(q) {}
 
 Mat3 SO3::matrix() const noexcept {
   return q_.toRotationMatrix();

@@ -7,7 +7,9 @@
 // pointer may be nullptr. These run once per factor per linearization, so they are written out
 // by hand rather than chained from SE2's group operations.
 #include "lslam/eigen.h"
+#include "lslam/factors/information.h"
 #include "lslam/geometry/se2.h"
+#include "lslam/type_list.h"
 
 namespace lslam {
 
@@ -19,5 +21,35 @@ Vec3 betweenErrorSE2(const SE2& xi, const SE2& xj, const SE2& z, Mat3* J_e_xi = 
 // Prior factor: z is the measured pose of x.
 // e = (x, y, theta) of z^-1 * x.
 Vec3 priorErrorSE2(const SE2& x, const SE2& z, Mat3* J_e_x = nullptr) noexcept;
+
+// ---- Factor kinds (the entries of a model's factor list; see lslam/models/) ----------------
+// Each names its variables, its measurement and error dimension, the error with its Jacobians and
+// the check of an input (measurement and information).
+
+struct PriorSE2Factor {
+  using Variables = TypeList<SE2>;
+  using Measurement = SE2;
+  static constexpr int kErrorDim = 3;
+  static Vec3 error(const SE2& x, const SE2& z, Mat3* J_e_x) noexcept {
+    return priorErrorSE2(x, z, J_e_x);
+  }
+  [[nodiscard]] static Status validate(const SE2& z, const Mat3& information) noexcept {
+    const Status s = validateValue(z);
+    return s != Status::Ok ? s : checkInformation(information);
+  }
+};
+
+struct BetweenSE2Factor {
+  using Variables = TypeList<SE2, SE2>;
+  using Measurement = SE2;
+  static constexpr int kErrorDim = 3;
+  static Vec3 error(const SE2& xi, const SE2& xj, const SE2& z, Mat3* J_e_xi,
+                    Mat3* J_e_xj) noexcept {
+    return betweenErrorSE2(xi, xj, z, J_e_xi, J_e_xj);
+  }
+  [[nodiscard]] static Status validate(const SE2& z, const Mat3& information) noexcept {
+    return PriorSE2Factor::validate(z, information);
+  }
+};
 
 }  // namespace lslam

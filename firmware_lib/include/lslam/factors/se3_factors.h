@@ -9,7 +9,9 @@
 // -v there. Away from it, Jacobians are w.r.t. right perturbations of the poses,
 // X (+) tau = X * Exp(tau) with tau = (rho, phi) as in se3.h; each output pointer may be nullptr.
 #include "lslam/eigen.h"
+#include "lslam/factors/information.h"
 #include "lslam/geometry/se3.h"
+#include "lslam/type_list.h"
 
 namespace lslam {
 
@@ -21,5 +23,35 @@ Vec6 betweenErrorSE3(const SE3& xi, const SE3& xj, const SE3& z, Mat6* J_e_xi = 
 // Prior factor: z is the measured pose of x.
 // e = (t, v with w >= 0) of z^-1 * x.
 Vec6 priorErrorSE3(const SE3& x, const SE3& z, Mat6* J_e_x = nullptr) noexcept;
+
+// ---- Factor kinds (the entries of a model's factor list; see lslam/models/) ----------------
+// Each names its variables, its measurement and error dimension, the error with its Jacobians and
+// the check of an input (measurement and information).
+
+struct PriorSE3Factor {
+  using Variables = TypeList<SE3>;
+  using Measurement = SE3;
+  static constexpr int kErrorDim = 6;
+  static Vec6 error(const SE3& x, const SE3& z, Mat6* J_e_x) noexcept {
+    return priorErrorSE3(x, z, J_e_x);
+  }
+  [[nodiscard]] static Status validate(const SE3& z, const Mat6& information) noexcept {
+    const Status s = validateValue(z);
+    return s != Status::Ok ? s : checkInformation(information);
+  }
+};
+
+struct BetweenSE3Factor {
+  using Variables = TypeList<SE3, SE3>;
+  using Measurement = SE3;
+  static constexpr int kErrorDim = 6;
+  static Vec6 error(const SE3& xi, const SE3& xj, const SE3& z, Mat6* J_e_xi,
+                    Mat6* J_e_xj) noexcept {
+    return betweenErrorSE3(xi, xj, z, J_e_xi, J_e_xj);
+  }
+  [[nodiscard]] static Status validate(const SE3& z, const Mat6& information) noexcept {
+    return PriorSE3Factor::validate(z, information);
+  }
+};
 
 }  // namespace lslam

@@ -9,6 +9,7 @@
 // they use.
 #include "lslam/eigen.h"
 #include "lslam/geometry/angle.h"
+#include "lslam/status.h"
 
 namespace lslam {
 
@@ -53,5 +54,11 @@ class SE2 {
   double y_ = 0.0;
   double theta_ = 0.0;
 };
+
+// Input check for a pose from outside (an initial value or a measurement): NonFiniteInput for a
+// NaN or Inf coordinate, Ok otherwise.
+[[nodiscard]] inline Status validateValue(const SE2& x) noexcept {
+  return x.vector().allFinite() ? Status::Ok : Status::NonFiniteInput;
+}
 
 }  // namespace lslam

@@ -14,6 +14,12 @@
 
 namespace lslam {
 
+class SE3;
+// Input check for a pose from outside (an initial value or a measurement): NonFiniteInput for a
+// NaN or Inf coefficient, InvalidArgument for a quaternion that is not unit (validateQuaternion),
+// Ok otherwise.
+[[nodiscard]] Status validateValue(const SE3& x) noexcept;
+
 using Vec6 = Eigen::Matrix<double, 6, 1>;
 using Mat6 = Eigen::Matrix<double, 6, 6>;
 using Mat36 = Eigen::Matrix<double, 3, 6>;

@@ -35,8 +35,9 @@ class SO3 {
   static constexpr int kDof = 3;
 
   SO3() = default;  // identity
-  // q must be a unit quaternion: validateQuaternion(q) == Status::Ok, checked by the caller
-  // (asserted in builds without NDEBUG). It is stored as given, without normalization.
+  // Stored as given, without normalization. Every operation assumes a unit quaternion: values
+  // from outside are checked with validateQuaternion (validateValue for an SE3) before any use, so
+  // a bad one is a Status, never an assertion.
   explicit SO3(const Eigen::Quaterniond& q) noexcept;
 
   const Eigen::Quaterniond& quaternion() const noexcept { return q_; }
