@@ -133,8 +133,11 @@ void IncrementalCholesky<S...>::scatterMixed(Index start, Index size, const Vect
       withSize<S...>(slotSize(start + a), [&](auto height_a) {
         constexpr int RA = decltype(height_a)::value;
         const ConstMatrixMap<RA, C> l_sj(slotValues(start + a));
-        const Eigen::Matrix<double, C, RA> l_sj_t = sign * l_sj.transpose();
-        a_.staged_d[s].template head<RA>().noalias() += l_sj_t.transpose() * d.template head<C>();
+        // sign * L(s,j), transposed in the products below.
+        Eigen::Matrix<double, RA, C> scaled;
+        scaled.noalias() = sign * l_sj;
+        const auto l_sj_t = scaled.transpose();
+        a_.staged_d[s].template head<RA>().noalias() += scaled * d.template head<C>();
         MatrixMap<RA, RA>(slotValues(target_start)).noalias() += l_sj * l_sj_t;
         Index p = 1;
         for (Index b = a + 1; b < size; ++b) {
