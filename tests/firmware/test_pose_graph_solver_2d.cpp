@@ -1208,6 +1208,9 @@ struct GuardedSolver {
     a.marked = guarded.make<Index>(n);
     a.last_list = guarded.make<Index>(n);
     a.in_last = guarded.make<std::uint8_t>(n);
+    a.ordering_parent = guarded.make<Index>(n);
+    a.ordering_count = guarded.make<Index>(n);
+    a.anchored = guarded.make<std::uint8_t>(n);
     solver = std::make_unique<PoseGraphSolver2D>(a, graph->arrays(), factor->arrays(),
                                                  ordering->arrays(), ids->arrays(), options);
   }

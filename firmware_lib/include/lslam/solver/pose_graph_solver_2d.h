@@ -34,44 +34,42 @@
 #include "lslam/geometry/se2.h"
 #include "lslam/linear/colamd_ordering.h"
 #include "lslam/linear/incremental_cholesky.h"
+#include "lslam/solver/factorization_driver.h"
+#include "lslam/solver/gauge.h"
 #include "lslam/solver/id_map.h"
+#include "lslam/solver/ordering_policy.h"
+#include "lslam/solver/relinearization_policy.h"
 #include "lslam/solver/solver_options.h"
+#include "lslam/solver/update_input.h"
 #include "lslam/solver/update_result.h"
+#include "lslam/solver/update_validator.h"
 
 namespace lslam {
 
-struct PoseInput {
-  VariableId id = 0;
-  SE2 initial;
-};
-
-// A measurement: a prior on pose `from` (to is ignored), or pose `to` seen from pose `from`. A
-// kind outside FactorKind is rejected (InvalidArgument). The information must be symmetric
-// positive definite (checkInformation); one symmetric only to rounding is used as its symmetric
-// part (symmetricPart), whichever path the update takes.
-struct FactorInput {
-  FactorKind kind = FactorKind::BetweenSE2;
-  VariableId from = 0;
-  VariableId to = 0;
-  SE2 measurement;
-  Mat3 information = Mat3::Identity();
-};
-
-// Everything the solver works in besides its parts' own arrays.
+// Everything the solver works in besides its parts' own arrays, max_poses entries each. Each array
+// belongs to one unit (named after it), which alone writes it.
 struct SolverArrays {
-  Index* position_of[2] = {nullptr, nullptr};  // double-buffered: a reordering is staged
+  Index* position_of[2] = {nullptr, nullptr};  // OrderingPolicy: the order, double-buffered
   Index* variable_at[2] = {nullptr, nullptr};
-  VariableId* id_of = nullptr;
-  Vec3* delta = nullptr;
-  Index* relinearize_list = nullptr;
+  Index* ordering_parent = nullptr;  // OrderingPolicy: scratch of a computed ordering's postorder
+  Index* ordering_count = nullptr;
+  VariableId* id_of = nullptr;        // the solver: each variable's id
+  Vec3* delta = nullptr;              // the solver: the solution
+  Index* visited = nullptr;           // the solver: the solve's visit list
+  Index* relinearize_list = nullptr;  // RelinearizationPolicy: the candidates
   std::uint8_t* relinearize_flag = nullptr;
-  Index* visited = nullptr;         // the solve's visit list; also scratch of computeOrdering()
-  Index* marked = nullptr;          // the variables relinearized by the update in progress
-  Index* last_list = nullptr;       // positions kept last by a reordered update; also scratch
-                                    // of computeOrdering()
-  std::uint8_t* in_last = nullptr;  // per position: already in last_list
+  Index* marked = nullptr;           // RelinearizationPolicy: the variables the update relinearizes
+  Index* last_list = nullptr;        // FactorizationDriver: positions kept last by a reordered top
+  std::uint8_t* in_last = nullptr;   // per position: already in last_list
+  std::uint8_t* anchored = nullptr;  // UpdateValidator: a flag per added pose
 };
 
+// The solver is a facade over its units, each in its own file: UpdateValidator (the checks before
+// anything changes), Gauge (the anchor), OrderingPolicy (the order and when to replace it),
+// RelinearizationPolicy (which variables to relinearize, and when) and FactorizationDriver (the
+// factor's update, retry and commit). It keeps the ids and the solution, and plans each update
+// from the policies. A unit holds references to the parts it reads (options, graph, factor); the
+// arrays of another unit are passed to it per call.
 class PoseGraphSolver2D {
  public:
   PoseGraphSolver2D(const SolverArrays& arrays, const PoseGraph2DArrays& graph,
@@ -95,8 +93,8 @@ class PoseGraphSolver2D {
   [[nodiscard]] Status estimate(VariableId id, SE2* pose) const;
   SE2 estimateAt(Index variable) const;
   // The solution's step of a variable from its linearization point (estimateAt() retracts it).
-  const Vec3& deltaAt(Index variable) const { return a_.delta[variable]; }
-  VariableId idAt(Index variable) const { return a_.id_of[variable]; }
+  const Vec3& deltaAt(Index variable) const { return delta_[variable]; }
+  VariableId idAt(Index variable) const { return id_of_[variable]; }
   // Sum of e^T Omega e over the caller's factors at the current estimate (its priors included,
   // the anchor not: see the gauge above).
   double chi2() const;
@@ -108,106 +106,29 @@ class PoseGraphSolver2D {
   void setOptions(const SolverOptions& options) { options_ = options; }
   const PoseGraph2D& graph() const { return graph_; }
   const IncrementalCholesky<3>& factor() const { return cholesky_; }
-  const Index* positionOf() const { return a_.position_of[active_]; }
-  const Index* variableAt() const { return a_.variable_at[active_]; }
+  const Index* positionOf() const { return ordering_.positionOf(); }
+  const Index* variableAt() const { return ordering_.variableAt(); }
 
  private:
-  struct UpdatePlan {
-    bool reorder_now = false;       // a full refactorization in a fresh (or the prepared) ordering
-    bool prepare_ordering = false;  // COLAMD at the end of the update, for the next
-    bool relinearize_now = false;   // the candidates were due (their points staged, or waiting)
-    Index relinearized = 0;         // variables whose linearization points are staged
-    bool refactor_fully = false;    // relinearize by a full refactorization in the current order
-    bool fresh_ordering = false;    // reorder_now, in an ordering with this update's factors
-    bool drop_anchor = false;       // the anchor leaves: every column refactorized, whatever else
-  };
-
-  // Also counts the caller's priors among the factors (valid or not: read only on Ok).
-  Status validate(const PoseInput* poses, Index num_poses, const FactorInput* factors,
-                  Index num_factors, Index* priors);
-  Status checkAnchored(Index num_poses, const FactorInput* factors, Index num_factors, bool anchor,
-                       bool drop_anchor) const;
-  // Whether an update of num_poses poses and `priors` caller priors gets the anchor (the gauge).
-  bool anchorsFirstPose(Index num_poses, Index priors) const {
-    return graph_.variables() == 0 && num_poses > 0 && priors == 0;
-  }
-  // Whether an update with `priors` caller priors takes the anchor out (the caller's first prior).
-  bool dropsAnchor(Index priors) const { return anchor_factor_ != kNoIndex && priors > 0; }
-  void forgetNewIds(const PoseInput* poses, Index num_poses);
-  bool wantsReorder() const;
-  bool relinearizesMost(Index relinearized) const;
-  bool relinearizationDear(Index new_poses, Index relinearized);
   UpdatePlan planUpdate(Index new_poses, bool drop_anchor);
-  bool orderingFresh() const;
-  bool likelyOutOfPool(bool full, Index relinearized, const Index* position_of) const;
-  void noteOrderingWork(bool reordered, std::int64_t block_products);
-  Status computeOrdering(Index* variable_at, Index* position_of);
-  bool prepareOrdering();
-  bool preparesOrderingAhead() const;
-  void takePreparedOrdering(Index* variable_at, Index* position_of) const;
-  // How far a variable's solution moved from its linearization point (max-norm), the measure of
-  // every relinearization rule.
-  double movedBy(Index variable) const { return a_.delta[variable].cwiseAbs().maxCoeff(); }
-  Index stageCandidates(double above, double at_most, Index count);
-  double partialThreshold() const;
-  Index stageEveryMovedVariable(double tolerance);
-  void placeAddedVariablesLast();
-  Index addedLoopClosures(const Index* position_of) const;
-  bool computeFreshOrdering(bool* prepared_overwritten);
   Status refactor(Index new_poses, const UpdatePlan& plan, bool allow_reorder,
                   UpdateResult& result);
-  Status factorizeWithRetry(bool full, bool allow_top_reorder, Index new_columns,
-                            const Index* variable_at, const Index* position_of, Index relinearized,
-                            bool* top_reordered, UpdateResult& result);
-  Status factorizeOnce(bool full, bool allow_top_reorder, Index new_columns,
-                       const Index* variable_at, const Index* position_of, Index relinearized,
-                       bool* top_reordered);
-  Index collectLastColumns(const Index* position_of, Index new_columns);
-  void markAffectedColumns(const Index* position_of, Index relinearized);
-  bool reachesBack(const Index* position_of) const;
-  // Calls visit(column) for the column of each variable of this update's factors, in `position_of`
-  // (a column once per factor that holds it).
-  template <class Visit>
-  void visitAddedFactorColumns(const Index* position_of, Visit visit) const {
-    for (Index f = first_new_factor_; f < graph_.factors(); ++f) {
-      visit(position_of[graph_.firstVariable(f)]);
-      const Index second = graph_.secondVariable(f);
-      if (second != kNoIndex) visit(position_of[second]);
-    }
-  }
-  bool factorReachesBack(Index f, const Index* position_of) const;
-  [[nodiscard]] Status addRowsOfAddedFactors(const Index* position_of);
-  void noteRelinearizationCandidates(Index visited);
-  void clearRelinearizationCandidates();
-  void keepWaitingCandidates();
 
-  SolverArrays a_;
+  // The parts (the units below hold references to them: declared first).
+  SolverOptions options_;
   PoseGraph2D graph_;
   IncrementalCholesky<3> cholesky_;
-  ColamdOrdering ordering_;
   IdMap ids_;
-  SolverOptions options_;
-  int active_ = 0;
-  Index relinearize_count_ = 0;
-  Index marked_count_ = 0;
-  Index first_new_factor_ = 0;
-  Index blocks_at_last_order_ = 0;
-  // The block products of the last full refactorization and the factor's blocks after it.
-  std::int64_t full_products_ = 0;
-  Index blocks_at_last_full_ = 0;
-  Index last_columns_refactored_ = 0;
-  Index largest_staging_ = 0;  // the most pool blocks an update other than a full one staged
-  // Work spent on the factor's growth since the last ordering, and the budget for it (both
-  // products x blocks; 0: no budget). See noteOrderingWork.
-  std::int64_t excess_work_ = 0;
-  std::int64_t excess_budget_ = 0;
-  Index updates_since_relinearization_ = 0;
-  bool relinearization_urgent_ = false;  // a waiting candidate passed the urgent threshold
-  // The inactive order buffer holds a COLAMD ordering of the first `prepared_variables_`
-  // variables, prepared by an earlier update for the next one (see prepare_ordering_ahead).
-  bool ordering_prepared_ = false;
-  Index prepared_variables_ = 0;
-  Index anchor_factor_ = kNoIndex;  // the anchor's factor while it is in the problem
+  // The solution bookkeeping.
+  VariableId* id_of_;
+  Vec3* delta_;
+  Index* visited_;
+  // The units.
+  Gauge gauge_;
+  UpdateValidator validator_;
+  OrderingPolicy ordering_;
+  RelinearizationPolicy relinearization_;
+  FactorizationDriver driver_;
 };
 
 namespace detail {
@@ -230,6 +151,9 @@ class SolverStorage2D {
   Index marked_[MaxPoses];
   Index last_list_[MaxPoses];
   std::uint8_t in_last_[MaxPoses];
+  Index ordering_parent_[MaxPoses];
+  Index ordering_count_[MaxPoses];
+  std::uint8_t anchored_[MaxPoses];
 
   SolverArrays solverArrays() {
     SolverArrays s;
@@ -237,14 +161,17 @@ class SolverStorage2D {
       s.position_of[b] = position_of_[b];
       s.variable_at[b] = variable_at_[b];
     }
+    s.ordering_parent = ordering_parent_;
+    s.ordering_count = ordering_count_;
     s.id_of = id_of_;
     s.delta = delta_;
+    s.visited = visited_;
     s.relinearize_list = relinearize_list_;
     s.relinearize_flag = relinearize_flag_;
-    s.visited = visited_;
     s.marked = marked_;
     s.last_list = last_list_;
     s.in_last = in_last_;
+    s.anchored = anchored_;
     return s;
   }
 };

@@ -1,0 +1,101 @@
+#pragma once
+// Drives the factor through one update (firmware_lib/README.md, One update, Update paths): which
+// path the staged graph change takes (recomputed columns, row updates, a full refactorization, a
+// reordered top), the compaction and the retry in a fresh ordering when the pool is full, the
+// commit or rollback of the graph and the factor together, and the bookkeeping of the update's
+// added factors and of the work its factorizations cost.
+#include <cstdint>
+
+#include "lslam/factors/pose_graph_2d.h"
+#include "lslam/linear/incremental_cholesky.h"
+#include "lslam/linear/index.h"
+#include "lslam/solver/ordering_policy.h"
+#include "lslam/solver/relinearization_policy.h"
+#include "lslam/solver/solver_options.h"
+#include "lslam/solver/update_result.h"
+#include "lslam/status.h"
+
+namespace lslam {
+
+// What an update does besides adding its poses and factors (PoseGraphSolver2D::planUpdate).
+struct UpdatePlan {
+  bool reorder_now = false;       // a full refactorization in a fresh (or the prepared) ordering
+  bool prepare_ordering = false;  // COLAMD at the end of the update, for the next
+  bool relinearize_now = false;   // the candidates were due (their points staged, or waiting)
+  Index relinearized = 0;         // variables whose linearization points are staged
+  bool refactor_fully = false;    // relinearize by a full refactorization in the current order
+  bool fresh_ordering = false;    // reorder_now, in an ordering with this update's factors
+  bool drop_anchor = false;       // the anchor leaves: every column refactorized, whatever else
+};
+
+// The variables an update relinearizes (their points staged in the graph).
+struct StagedVariables {
+  const Index* list = nullptr;
+  Index count = 0;
+};
+
+// Sizes: max_variables each.
+struct FactorizationArrays {
+  Index* last_list = nullptr;       // the positions a reordered update keeps last
+  std::uint8_t* in_last = nullptr;  // per position: already in last_list
+};
+
+class FactorizationDriver {
+ public:
+  FactorizationDriver(const FactorizationArrays& arrays, PoseGraph2D& graph,
+                      IncrementalCholesky<3>& factor, const SolverOptions& options);
+
+  // The graph's update has begun: the factors from here on are the update's.
+  void beginStaging() { first_new_factor_ = graph_.factors(); }
+  Index firstNewFactor() const { return first_new_factor_; }
+  // The factors of this update that reach back before the newest committed pose.
+  Index addedLoopClosures(const Index* position_of) const;
+  const FullRefactorizationCost& lastFull() const { return last_full_; }
+  // The block products of recomputing in place, in `position_of`, the columns that adding
+  // new_columns and relinearizing `relinearized` would change (nothing changes).
+  std::int64_t inPlaceProducts(Index new_columns, const Index* position_of,
+                               const StagedVariables& relinearized);
+
+  // Factorizes the staged graph change (added poses at the end, `relinearized` staged), reordering
+  // first if the plan says so (the prepared ordering, unless the plan wants a fresh one with this
+  // update's factors); commits the graph and the factor, and activates the order they are in, or
+  // rolls the graph back. positions_moved: the variables changed positions (a reordering).
+  [[nodiscard]] Status refactor(OrderingPolicy& ordering, const UpdatePlan& plan,
+                                const StagedVariables& relinearized, Index new_poses,
+                                bool allow_reorder, bool* positions_moved, UpdateResult& result);
+
+ private:
+  Status factorizeWithRetry(OrderingPolicy& ordering, bool full, bool allow_top_reorder,
+                            Index new_columns, const Index* variable_at, const Index* position_of,
+                            const StagedVariables& relinearized, bool* top_reordered,
+                            UpdateResult& result);
+  Status factorizeOnce(OrderingPolicy& ordering, bool full, bool allow_top_reorder,
+                       Index new_columns, const Index* variable_at, const Index* position_of,
+                       const StagedVariables& relinearized, bool* top_reordered);
+  bool likelyOutOfPool(bool full, Index relinearized, const Index* position_of) const;
+  Index collectLastColumns(const Index* position_of, Index new_columns);
+  void markAffectedColumns(const Index* position_of, const StagedVariables& relinearized);
+  bool reachesBack(const Index* position_of) const;
+  // Calls visit(column) for the column of each variable of this update's factors, in `position_of`
+  // (a column once per factor that holds it).
+  template <class Visit>
+  void visitAddedFactorColumns(const Index* position_of, Visit visit) const {
+    for (Index f = first_new_factor_; f < graph_.factors(); ++f) {
+      visit(position_of[graph_.firstVariable(f)]);
+      const Index second = graph_.secondVariable(f);
+      if (second != kNoIndex) visit(position_of[second]);
+    }
+  }
+  bool factorReachesBack(Index f, const Index* position_of) const;
+  [[nodiscard]] Status addRowsOfAddedFactors(const Index* position_of);
+
+  FactorizationArrays a_;
+  PoseGraph2D& graph_;
+  IncrementalCholesky<3>& factor_;
+  const SolverOptions& options_;
+  Index first_new_factor_ = 0;
+  FullRefactorizationCost last_full_;
+  Index largest_staging_ = 0;  // the most pool blocks an update other than a full one staged
+};
+
+}  // namespace lslam

@@ -1,0 +1,95 @@
+#pragma once
+// Which variables are relinearized, and when (firmware_lib/README.md, Relinearization): the
+// candidates a solve leaves (their delta past the threshold), the urgency and skip rules, the
+// partial bar outside a reordering, and the list of variables an update stages.
+//
+// The bars are those of one kind of variable (RelinearizationBars); a kind with bars of its own
+// will select them per variable where barsOf() is read.
+#include <cstdint>
+
+#include "lslam/eigen.h"
+#include "lslam/factors/pose_graph_2d.h"
+#include "lslam/linear/incremental_cholesky.h"
+#include "lslam/linear/index.h"
+#include "lslam/solver/solver_options.h"
+
+namespace lslam {
+
+// Sizes: max_variables each.
+struct RelinearizationArrays {
+  Index* candidates = nullptr;           // the candidates, in the order they came
+  std::uint8_t* is_candidate = nullptr;  // per variable: in `candidates`
+  Index* staged = nullptr;               // the variables relinearized by the update in progress
+};
+
+// The relinearization bars of one kind of variable (max-norm of its delta).
+struct RelinearizationBars {
+  double threshold = 0.0;  // a candidate past this
+  double urgent = 0.0;     // relinearize at the next update past this
+  double partial = 0.0;    // outside a reordering, take the candidates past this
+};
+
+// The candidates an update stages: past the threshold, past the partial bar, or those the partial
+// bar left waiting (past the threshold, at most the partial bar).
+enum class CandidateRange : std::uint8_t { PastThreshold, PastPartial, LeftWaiting };
+
+// The block products of the last full refactorization and the factor's blocks after it.
+struct FullRefactorizationCost {
+  std::int64_t products = 0;
+  Index blocks = 0;
+};
+
+class RelinearizationPolicy {
+ public:
+  RelinearizationPolicy(const RelinearizationArrays& arrays, PoseGraph2D& graph,
+                        const IncrementalCholesky<3>& factor, const SolverOptions& options);
+
+  // The variables staged by the update in progress (stageCandidates, stageEveryMovedVariable).
+  const Index* staged() const { return a_.staged; }
+  // Whether the candidates are due at this update (urgent, a reordering, or relinearize_skip).
+  bool due(bool reorder_now) const;
+  // Whether the partial bar leaves candidates waiting that a full refactorization takes along.
+  bool partialLeavesWaiting() const;
+  // Stages the candidates in `range` (their points moved to lin (+) delta) and lists them in
+  // staged() from position `count` on; returns the count after them.
+  Index stageCandidates(CandidateRange range, const Vec3* delta, Index count);
+  // Stages every variable whose delta exceeds `tolerance` (Gauss-Newton); returns their count.
+  Index stageEveryMovedVariable(const Vec3* delta, double tolerance);
+  // Whether relinearizing `relinearized` variables should refactorize every column rather than
+  // recompute the affected ones in place. in_place_products() estimates the in-place work (it is
+  // called only when the cheaper rules do not decide).
+  template <class InPlaceProducts>
+  bool relinearizationDear(Index relinearized, const FullRefactorizationCost& last_full,
+                           InPlaceProducts in_place_products) const {
+    if (relinearized == 0) return false;
+    if (relinearizesMost(relinearized)) return true;
+    if (options_.relinearize_full_cost_ratio <= 0.0 || last_full.products == 0) return false;
+    const std::int64_t in_place = in_place_products();
+    const double full =
+        options_.relinearize_full_cost_ratio * static_cast<double>(last_full.products) *
+        static_cast<double>(factor_.liveBlocks()) / static_cast<double>(last_full.blocks);
+    return static_cast<double>(in_place) > full;
+  }
+
+  // After a solve that visited the columns visited[0 .. count) (positions in variable_at's order).
+  void noteCandidates(const Index* visited, Index count, const Index* variable_at);
+  // After a committed update: relinearized (the candidates were due) or not.
+  void noteUpdate(bool relinearized, const Vec3* delta);
+  // Every candidate relinearized (Gauss-Newton).
+  void clearCandidates();
+
+ private:
+  RelinearizationBars barsOf() const;
+  bool relinearizesMost(Index relinearized) const;
+  void keepWaitingCandidates(const Vec3* delta);
+
+  RelinearizationArrays a_;
+  PoseGraph2D& graph_;
+  const IncrementalCholesky<3>& factor_;
+  const SolverOptions& options_;
+  Index candidate_count_ = 0;
+  Index updates_since_relinearization_ = 0;
+  bool urgent_ = false;  // a waiting candidate passed the urgent bar
+};
+
+}  // namespace lslam
