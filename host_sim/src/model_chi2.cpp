@@ -5,28 +5,19 @@
 #include <stdexcept>
 #include <string>
 
+#include "model_geometry.h"
+
 namespace lslam::sim {
 
 namespace {
+
+using namespace geometry;
 
 // A 2D rigid transform.
 struct Rigid2 {
   Eigen::Matrix2d r;
   Eigen::Vector2d t;
 };
-
-Eigen::Matrix2d rot2(double theta) {
-  const double c = std::cos(theta);
-  const double s = std::sin(theta);
-  Eigen::Matrix2d m;
-  m << c, -s, s, c;
-  return m;
-}
-
-// The quaternion of SE3 parameters, normalised (files hold it to ~1e-6; g2o normalises on read).
-Eigen::Quaterniond quat(const double* p) {
-  return Eigen::Quaterniond(p[6], p[3], p[4], p[5]).normalized();
-}
 
 // (t, qvec with qw >= 0) of the transform (q, t).
 Vector6d g2oVector(const Eigen::Quaterniond& q, const Eigen::Vector3d& t) {
@@ -146,34 +137,6 @@ const Eigen::VectorXd& lookup(const ModelEstimate& values, const VariableKey& ke
                                 " (line " + std::to_string(f.line) + ") has no value");
   }
   return it->second;
-}
-
-// Rigid-transform helpers of initialEstimate, on parameter vectors.
-Eigen::VectorXd composeSE2(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
-  const Eigen::Vector2d t = Eigen::Vector2d(a[0], a[1]) + rot2(a[2]) * Eigen::Vector2d(b[0], b[1]);
-  return Eigen::Vector3d(t.x(), t.y(), wrapAngle(a[2] + b[2]));
-}
-
-Eigen::VectorXd inverseSE2(const Eigen::VectorXd& a) {
-  const Eigen::Vector2d t = -(rot2(a[2]).transpose() * Eigen::Vector2d(a[0], a[1]));
-  return Eigen::Vector3d(t.x(), t.y(), wrapAngle(-a[2]));
-}
-
-Eigen::VectorXd se3Params(const Eigen::Quaterniond& q, const Eigen::Vector3d& t) {
-  Vector7d p;
-  p << t, q.x(), q.y(), q.z(), q.w();
-  return p;
-}
-
-Eigen::VectorXd composeSE3(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
-  const Eigen::Quaterniond qa = quat(a.data());
-  const Eigen::Quaterniond qb = quat(b.data());
-  return se3Params((qa * qb).normalized(), a.head<3>() + qa * b.head<3>());
-}
-
-Eigen::VectorXd inverseSE3(const Eigen::VectorXd& a) {
-  const Eigen::Quaterniond qi = quat(a.data()).conjugate();
-  return se3Params(qi, -(qi * a.head<3>()));
 }
 
 Eigen::VectorXd identity(VariableKind kind) {
