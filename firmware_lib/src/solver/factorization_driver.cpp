@@ -3,32 +3,39 @@
 #include <algorithm>
 
 #include "lslam/assert.h"
+#include "lslam/factors/pose_graph_2d.h"
+#include "lslam/graph/factor_graph.h"
+#include "lslam/models/slam_2d.h"
+#include "lslam/models/slam_3d.h"
 
 namespace lslam {
 namespace {
 
+template <class Factor>
 class ColumnMarker final : public NeighbourVisitor {
  public:
-  ColumnMarker(IncrementalCholesky<3>& factor, const Index* position_of)
+  ColumnMarker(Factor& factor, const Index* position_of)
       : factor_(factor), position_of_(position_of) {}
   void visit(Index variable) override { factor_.markChanged(position_of_[variable]); }
 
  private:
-  IncrementalCholesky<3>& factor_;
+  Factor& factor_;
   const Index* position_of_;
 };
 
 }  // namespace
 
-FactorizationDriver::FactorizationDriver(const FactorizationArrays& arrays, PoseGraph2D& graph,
-                                         IncrementalCholesky<3>& factor,
-                                         const SolverOptions& options)
+template <class Graph, class Factor>
+FactorizationDriver<Graph, Factor>::FactorizationDriver(const FactorizationArrays& arrays,
+                                                        Graph& graph, Factor& factor,
+                                                        const SolverOptions& options)
     : a_(arrays), graph_(graph), factor_(factor), options_(options) {
   for (Index v = 0; v < graph_.maxVariables(); ++v) a_.in_last[v] = 0;
 }
 
-std::int64_t FactorizationDriver::inPlaceProducts(Index new_columns, const Index* position_of,
-                                                  const StagedVariables& relinearized) {
+template <class Graph, class Factor>
+std::int64_t FactorizationDriver<Graph, Factor>::inPlaceProducts(
+    Index new_columns, const Index* position_of, const StagedVariables& relinearized) {
   factor_.beginUpdate(new_columns, false);
   markAffectedColumns(position_of, relinearized);
   const std::int64_t in_place = factor_.inPlaceProducts();
@@ -36,9 +43,11 @@ std::int64_t FactorizationDriver::inPlaceProducts(Index new_columns, const Index
   return in_place;
 }
 
-Status FactorizationDriver::refactor(OrderingPolicy& ordering, const UpdatePlan& plan,
-                                     const StagedVariables& relinearized, Index new_poses,
-                                     bool allow_reorder, bool* positions_moved, UpdateResult& r) {
+template <class Graph, class Factor>
+Status FactorizationDriver<Graph, Factor>::refactor(Ordering& ordering, const UpdatePlan& plan,
+                                                    const StagedVariables& relinearized,
+                                                    Index new_poses, bool allow_reorder,
+                                                    bool* positions_moved, UpdateResult& r) {
   LSLAM_ASSERT(allow_reorder || !plan.reorder_now);
   LSLAM_ASSERT(relinearized.count == plan.relinearized);
   bool full = plan.reorder_now || plan.refactor_fully;
@@ -106,11 +115,11 @@ Status FactorizationDriver::refactor(OrderingPolicy& ordering, const UpdatePlan&
   return Status::Ok;
 }
 
-Status FactorizationDriver::factorizeWithRetry(OrderingPolicy& ordering, bool full,
-                                               bool allow_top_reorder, Index new_columns,
-                                               const Index* variable_at, const Index* position_of,
-                                               const StagedVariables& relinearized,
-                                               bool* top_reordered, UpdateResult& r) {
+template <class Graph, class Factor>
+Status FactorizationDriver<Graph, Factor>::factorizeWithRetry(
+    Ordering& ordering, bool full, bool allow_top_reorder, Index new_columns,
+    const Index* variable_at, const Index* position_of, const StagedVariables& relinearized,
+    bool* top_reordered, UpdateResult& r) {
   if (likelyOutOfPool(full, relinearized.count, position_of) &&
       factor_.poolEnd() > factor_.liveBlocks()) {
     factor_.compact();
@@ -133,8 +142,9 @@ Status FactorizationDriver::factorizeWithRetry(OrderingPolicy& ordering, bool fu
 // most about what the largest such update so far staged. An odometry update (the last columns
 // only) is never compacted ahead: its need is tiny, and its cost must not depend on the pool's
 // fill.
-bool FactorizationDriver::likelyOutOfPool(bool full, Index relinearized,
-                                          const Index* position_of) const {
+template <class Graph, class Factor>
+bool FactorizationDriver<Graph, Factor>::likelyOutOfPool(bool full, Index relinearized,
+                                                         const Index* position_of) const {
   const Index live = factor_.liveBlocks();
   const Index need = full ? live + live / 4 : largest_staging_;
   if (factor_.poolEnd() + need <= factor_.poolCapacity()) return false;  // the common case
@@ -143,11 +153,13 @@ bool FactorizationDriver::likelyOutOfPool(bool full, Index relinearized,
 
 // One attempt: a full refactorization, a reordered update of the affected top, or the plain
 // update in the current order. The reordered update writes the fresh order to the inactive buffer.
-Status FactorizationDriver::factorizeOnce(OrderingPolicy& ordering, bool full,
-                                          bool allow_top_reorder, Index new_columns,
-                                          const Index* variable_at, const Index* position_of,
-                                          const StagedVariables& relinearized,
-                                          bool* top_reordered) {
+template <class Graph, class Factor>
+Status FactorizationDriver<Graph, Factor>::factorizeOnce(Ordering& ordering, bool full,
+                                                         bool allow_top_reorder, Index new_columns,
+                                                         const Index* variable_at,
+                                                         const Index* position_of,
+                                                         const StagedVariables& relinearized,
+                                                         bool* top_reordered) {
   *top_reordered = false;
   factor_.beginUpdate(new_columns, full);
   // A full refactorization in the active order (a reordering reads the other buffer) keeps the
@@ -157,15 +169,17 @@ Status FactorizationDriver::factorizeOnce(OrderingPolicy& ordering, bool full,
     visitAddedFactorColumns(position_of,
                             [this](Index column) { factor_.markStructureChanged(column); });
   }
-  if (!full && relinearized.count == 0 && options_.row_updates && reachesBack(position_of)) {
-    Status s = addRowsOfAddedFactors(position_of);
-    if (s == Status::Ok) s = factor_.finishRowUpdate();
-    if (s == Status::Ok) {
-      factor_.commit();
-    } else {
-      factor_.rollback();
+  if constexpr (kRowUpdates<Graph, Factor>) {
+    if (!full && relinearized.count == 0 && options_.row_updates && reachesBack(position_of)) {
+      Status s = addRowsOfAddedFactors(position_of);
+      if (s == Status::Ok) s = factor_.finishRowUpdate();
+      if (s == Status::Ok) {
+        factor_.commit();
+      } else {
+        factor_.rollback();
+      }
+      return s;
     }
-    return s;
   }
   if (!full) markAffectedColumns(position_of, relinearized);
   if (!full && allow_top_reorder && options_.reorder_affected_top &&
@@ -197,7 +211,9 @@ Status FactorizationDriver::factorizeOnce(OrderingPolicy& ordering, bool full,
 // The columns a reordered update keeps last: the existing variables of the added factors and the
 // newest existing pose (ascending), then the added poses, newest last, so that the next odometry
 // factor again touches only the last columns.
-Index FactorizationDriver::collectLastColumns(const Index* position_of, Index new_columns) {
+template <class Graph, class Factor>
+Index FactorizationDriver<Graph, Factor>::collectLastColumns(const Index* position_of,
+                                                             Index new_columns) {
   const Index first_new = factor_.columns();
   Index count = 0;
   auto add = [&](Index position) {
@@ -218,11 +234,13 @@ Index FactorizationDriver::collectLastColumns(const Index* position_of, Index ne
 // Only then is the path long enough for the row update to pay: an odometry step touches the last
 // two columns, and recomputing those is cheaper than whitening and rotating (on the Cortex-M7
 // about 6,100 against 9,000 instructions per step).
-bool FactorizationDriver::reachesBack(const Index* position_of) const {
+template <class Graph, class Factor>
+bool FactorizationDriver<Graph, Factor>::reachesBack(const Index* position_of) const {
   return addedLoopClosures(position_of) > 0;
 }
 
-Index FactorizationDriver::addedLoopClosures(const Index* position_of) const {
+template <class Graph, class Factor>
+Index FactorizationDriver<Graph, Factor>::addedLoopClosures(const Index* position_of) const {
   Index count = 0;
   for (Index f = first_new_factor_; f < graph_.factors(); ++f) {
     if (factorReachesBack(f, position_of)) ++count;
@@ -231,7 +249,9 @@ Index FactorizationDriver::addedLoopClosures(const Index* position_of) const {
 }
 
 // Whether factor f touches a column before the newest committed one.
-bool FactorizationDriver::factorReachesBack(Index f, const Index* position_of) const {
+template <class Graph, class Factor>
+bool FactorizationDriver<Graph, Factor>::factorReachesBack(Index f,
+                                                           const Index* position_of) const {
   const Index newest_committed = factor_.columns() - 1;
   if (position_of[graph_.firstVariable(f)] < newest_committed) return true;
   const Index second = graph_.secondVariable(f);
@@ -240,44 +260,58 @@ bool FactorizationDriver::factorReachesBack(Index f, const Index* position_of) c
 
 // The factors that reach back (loop closures) go in pairs, each pair rotated together along the
 // part of their paths they share; the rest (odometry: the last two columns) one by one.
-Status FactorizationDriver::addRowsOfAddedFactors(const Index* position_of) {
-  using FactorRows = IncrementalCholesky<3>::FactorRows;
-  struct Whitened {
-    Index positions[2];
-    Mat3 rows[2];
-    FactorRows rows_of;
-  };
-  Whitened whitened[2];
-  int pending = 0;  // reaching-back factors whitened, waiting for a partner
-  for (Index f = first_new_factor_; f < graph_.factors(); ++f) {
-    Whitened& w = whitened[pending];
-    w.rows_of.count = graph_.whitenedRows(f, position_of, w.positions, w.rows, &w.rows_of.rhs);
-    w.rows_of.positions = w.positions;
-    w.rows_of.rows_transposed = w.rows;
-    Status s = Status::Ok;
-    if (!factorReachesBack(f, position_of)) {
-      s = factor_.addFactorRows(w.rows_of);
-    } else if (pending == 0) {
-      pending = 1;
-    } else {
-      s = factor_.addFactorRows(whitened[0].rows_of, w.rows_of);
-      pending = 0;
+template <class Graph, class Factor>
+Status FactorizationDriver<Graph, Factor>::addRowsOfAddedFactors(const Index* position_of) {
+  if constexpr (kRowUpdates<Graph, Factor>) {
+    using FactorRows = typename Factor::FactorRows;
+    struct Whitened {
+      Index positions[2];
+      typename Factor::Block rows[2];
+      FactorRows rows_of;
+    };
+    Whitened whitened[2];
+    int pending = 0;  // reaching-back factors whitened, waiting for a partner
+    for (Index f = first_new_factor_; f < graph_.factors(); ++f) {
+      Whitened& w = whitened[pending];
+      w.rows_of.count = graph_.whitenedRows(f, position_of, w.positions, w.rows, &w.rows_of.rhs);
+      w.rows_of.positions = w.positions;
+      w.rows_of.rows_transposed = w.rows;
+      Status s = Status::Ok;
+      if (!factorReachesBack(f, position_of)) {
+        s = factor_.addFactorRows(w.rows_of);
+      } else if (pending == 0) {
+        pending = 1;
+      } else {
+        s = factor_.addFactorRows(whitened[0].rows_of, w.rows_of);
+        pending = 0;
+      }
+      if (s != Status::Ok) return s;
     }
-    if (s != Status::Ok) return s;
+    return pending == 1 ? factor_.addFactorRows(whitened[0].rows_of) : Status::Ok;
+  } else {
+    // Never called: factorizeOnce takes the row update only where it exists.
+    static_cast<void>(position_of);
+    LSLAM_ASSERT(false);
+    return Status::InvalidArgument;
   }
-  return pending == 1 ? factor_.addFactorRows(whitened[0].rows_of) : Status::Ok;
 }
 
-void FactorizationDriver::markAffectedColumns(const Index* position_of,
-                                              const StagedVariables& relinearized) {
+template <class Graph, class Factor>
+void FactorizationDriver<Graph, Factor>::markAffectedColumns(const Index* position_of,
+                                                             const StagedVariables& relinearized) {
   visitAddedFactorColumns(position_of, [this](Index column) { factor_.markChanged(column); });
   // A relinearized variable changes its own column of Lambda and those of its neighbours.
-  ColumnMarker marker(factor_, position_of);
+  ColumnMarker<Factor> marker(factor_, position_of);
   for (Index i = 0; i < relinearized.count; ++i) {
     const Index v = relinearized.list[i];
     factor_.markChanged(position_of[v]);
     graph_.visitNeighbours(v, marker);
   }
 }
+
+// The pose graph, and the models of the generic solver.
+template class FactorizationDriver<PoseGraph2D, IncrementalCholesky<3>>;
+template class FactorizationDriver<FactorGraph<Slam2D>, IncrementalCholesky<3, 2>>;
+template class FactorizationDriver<FactorGraph<Slam3D>, IncrementalCholesky<6, 3>>;
 
 }  // namespace lslam

@@ -3,11 +3,16 @@
 #include <limits>
 
 #include "lslam/assert.h"
+#include "lslam/factors/pose_graph_2d.h"
+#include "lslam/graph/factor_graph.h"
 #include "lslam/linear/elimination_tree.h"
+#include "lslam/models/slam_2d.h"
+#include "lslam/models/slam_3d.h"
 
 namespace lslam {
 
-void OrderingPolicy::placeAddedVariablesLast() {
+template <class Graph, class Factor>
+void OrderingPolicy<Graph, Factor>::placeAddedVariablesLast() {
   for (Index v = factor_.columns(); v < graph_.variables(); ++v) {
     a_.variable_at[active_][v] = v;
     a_.position_of[active_][v] = v;
@@ -18,7 +23,8 @@ void OrderingPolicy::placeAddedVariablesLast() {
 // the last ordering produced, when the updates since have spent more extra work on that growth
 // than the ordering's factorization cost (see reorder_excess_ratio), or when the last update had to
 // walk a long elimination-tree path (a loop closure far back in the order).
-bool OrderingPolicy::wantsReorder() const {
+template <class Graph, class Factor>
+bool OrderingPolicy<Graph, Factor>::wantsReorder() const {
   // The update's poses are already in the staged graph.
   if (graph_.variables() < options_.reorder_min_variables) return false;
   if (blocks_at_last_order_ == 0) return true;
@@ -38,7 +44,9 @@ bool OrderingPolicy::wantsReorder() const {
 // compare, whose cost does not depend on the values: a division, or a conversion of the sum to
 // double in software, costs the Cortex-M more as the sum grows, and an odometry step's cost must
 // not drift.
-void OrderingPolicy::noteFactorization(bool reordered, bool full, const FactorizationStats& stats) {
+template <class Graph, class Factor>
+void OrderingPolicy<Graph, Factor>::noteFactorization(bool reordered, bool full,
+                                                      const FactorizationStats& stats) {
   last_columns_refactored_ = full ? 0 : stats.columns_recomputed;
   const std::int64_t block_products = stats.block_products;
   if (reordered) {
@@ -54,7 +62,8 @@ void OrderingPolicy::noteFactorization(bool reordered, bool full, const Factoriz
   if (blocks_at_last_order_ > 0 && growth > 0) excess_work_ += block_products * growth;
 }
 
-bool OrderingPolicy::orderingFresh() const {
+template <class Graph, class Factor>
+bool OrderingPolicy<Graph, Factor>::orderingFresh() const {
   return blocks_at_last_order_ > 0 &&
          static_cast<double>(factor_.liveBlocks()) <=
              options_.reorder_refresh_growth * static_cast<double>(blocks_at_last_order_);
@@ -65,7 +74,8 @@ bool OrderingPolicy::orderingFresh() const {
 // touches only the last columns, so it stays constant-time after a reordering too. With nothing
 // committed (a first update that reorders, or retries for room) the ordered variables are the
 // update's own, its newest last.
-Status OrderingPolicy::computeOrdering(Index* variable_at, Index* position_of) {
+template <class Graph, class Factor>
+Status OrderingPolicy<Graph, Factor>::computeOrdering(Index* variable_at, Index* position_of) {
   const Index ordered = factor_.columns() > 0 ? factor_.columns() : graph_.variables();
   if (ordered == 0) return Status::Ok;  // an empty graph: nothing to order
   const Index last = ordered - 1;
@@ -90,12 +100,14 @@ Status OrderingPolicy::computeOrdering(Index* variable_at, Index* position_of) {
   return Status::Ok;
 }
 
-bool OrderingPolicy::preparesOrderingAhead(std::int64_t full_products) const {
+template <class Graph, class Factor>
+bool OrderingPolicy<Graph, Factor>::preparesOrderingAhead(std::int64_t full_products) const {
   return options_.prepare_ordering_ahead && full_products >= options_.prepare_ordering_min_products;
 }
 
 // Without ordering workspace nothing is prepared, and the next update asks again.
-bool OrderingPolicy::prepareOrdering() {
+template <class Graph, class Factor>
+bool OrderingPolicy<Graph, Factor>::prepareOrdering() {
   const int o = other();
   ordering_prepared_ = computeOrdering(a_.variable_at[o], a_.position_of[o]) == Status::Ok;
   prepared_variables_ = graph_.variables();
@@ -103,7 +115,8 @@ bool OrderingPolicy::prepareOrdering() {
 }
 
 // The variables added since the preparation follow in the order they came: the newest stays last.
-void OrderingPolicy::takePreparedOrdering() {
+template <class Graph, class Factor>
+void OrderingPolicy<Graph, Factor>::takePreparedOrdering() {
   Index* variable_at = a_.variable_at[other()];
   Index* position_of = a_.position_of[other()];
   for (Index v = prepared_variables_; v < graph_.variables(); ++v) {
@@ -112,10 +125,16 @@ void OrderingPolicy::takePreparedOrdering() {
   }
 }
 
-bool OrderingPolicy::computeFreshOrdering(bool* prepared_overwritten) {
+template <class Graph, class Factor>
+bool OrderingPolicy<Graph, Factor>::computeFreshOrdering(bool* prepared_overwritten) {
   const int o = other();
   *prepared_overwritten = ordering_prepared_;
   return computeOrdering(a_.variable_at[o], a_.position_of[o]) == Status::Ok;
 }
+
+// The pose graph, and the models of the generic solver.
+template class OrderingPolicy<PoseGraph2D, IncrementalCholesky<3>>;
+template class OrderingPolicy<FactorGraph<Slam2D>, IncrementalCholesky<3, 2>>;
+template class OrderingPolicy<FactorGraph<Slam3D>, IncrementalCholesky<6, 3>>;
 
 }  // namespace lslam

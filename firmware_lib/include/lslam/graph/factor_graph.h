@@ -189,6 +189,7 @@ class FactorGraph final : public detail::LinearTypesOf<ModelBlockSizes<Model>>::
 
   // ---- Sizes and capacities: a caller checks them before adding (CapacityExhausted).
   Index variables() const { return num_variables_; }
+  Index maxVariables() const { return a_.max_variables; }
   Index variablesOfKind(int kind) const { return num_of_kind_[kind]; }
   Index maxVariablesOfKind(int kind) const { return a_.max_of_kind[kind]; }
   Index freeVariablesOfKind(int kind) const { return a_.max_of_kind[kind] - num_of_kind_[kind]; }

@@ -4,11 +4,16 @@
 // reordered top), the compaction and the retry in a fresh ordering when the pool is full, the
 // commit or rollback of the graph and the factor together, and the bookkeeping of the update's
 // added factors and of the work its factorizations cost.
+//
+// A template over the graph and the factor, defined and instantiated for the solver's pairs in
+// factorization_driver.cpp. The row update is taken only where kRowUpdates (graph_adapter.h)
+// holds (PoseGraph2D with one block size); elsewhere an update that only adds factors recomputes
+// its columns (or reorders the affected top).
 #include <cstdint>
 
-#include "lslam/factors/pose_graph_2d.h"
 #include "lslam/linear/incremental_cholesky.h"
 #include "lslam/linear/index.h"
+#include "lslam/solver/graph_adapter.h"
 #include "lslam/solver/ordering_policy.h"
 #include "lslam/solver/relinearization_policy.h"
 #include "lslam/solver/solver_options.h"
@@ -40,10 +45,13 @@ struct FactorizationArrays {
   std::uint8_t* in_last = nullptr;  // per position: already in last_list
 };
 
+template <class Graph, class Factor>
 class FactorizationDriver {
  public:
-  FactorizationDriver(const FactorizationArrays& arrays, PoseGraph2D& graph,
-                      IncrementalCholesky<3>& factor, const SolverOptions& options);
+  using Ordering = OrderingPolicy<Graph, Factor>;
+
+  FactorizationDriver(const FactorizationArrays& arrays, Graph& graph, Factor& factor,
+                      const SolverOptions& options);
 
   // The graph's update has begun: the factors from here on are the update's.
   void beginStaging() { first_new_factor_ = graph_.factors(); }
@@ -60,17 +68,17 @@ class FactorizationDriver {
   // first if the plan says so (the prepared ordering, unless the plan wants a fresh one with this
   // update's factors); commits the graph and the factor, and activates the order they are in, or
   // rolls the graph back. positions_moved: the variables changed positions (a reordering).
-  [[nodiscard]] Status refactor(OrderingPolicy& ordering, const UpdatePlan& plan,
+  [[nodiscard]] Status refactor(Ordering& ordering, const UpdatePlan& plan,
                                 const StagedVariables& relinearized, Index new_poses,
                                 bool allow_reorder, bool* positions_moved, UpdateResult& result);
 
  private:
-  Status factorizeWithRetry(OrderingPolicy& ordering, bool full, bool allow_top_reorder,
+  Status factorizeWithRetry(Ordering& ordering, bool full, bool allow_top_reorder,
                             Index new_columns, const Index* variable_at, const Index* position_of,
                             const StagedVariables& relinearized, bool* top_reordered,
                             UpdateResult& result);
-  Status factorizeOnce(OrderingPolicy& ordering, bool full, bool allow_top_reorder,
-                       Index new_columns, const Index* variable_at, const Index* position_of,
+  Status factorizeOnce(Ordering& ordering, bool full, bool allow_top_reorder, Index new_columns,
+                       const Index* variable_at, const Index* position_of,
                        const StagedVariables& relinearized, bool* top_reordered);
   bool likelyOutOfPool(bool full, Index relinearized, const Index* position_of) const;
   Index collectLastColumns(const Index* position_of, Index new_columns);
@@ -90,8 +98,8 @@ class FactorizationDriver {
   [[nodiscard]] Status addRowsOfAddedFactors(const Index* position_of);
 
   FactorizationArrays a_;
-  PoseGraph2D& graph_;
-  IncrementalCholesky<3>& factor_;
+  Graph& graph_;
+  Factor& factor_;
   const SolverOptions& options_;
   Index first_new_factor_ = 0;
   FullRefactorizationCost last_full_;

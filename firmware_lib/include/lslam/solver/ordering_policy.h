@@ -2,9 +2,12 @@
 // The elimination order of the solver and when to replace it (firmware_lib/README.md, Ordering):
 // the two order buffers (a reordering is staged in the inactive one), the triggers of a
 // reordering and their work budget, and the COLAMD ordering prepared one update ahead.
+//
+// A template over the graph and the factor (PoseGraph2D with IncrementalCholesky<3>, FactorGraph
+// of Slam2D or Slam3D with the model's block sizes), defined and instantiated for those pairs in
+// ordering_policy.cpp.
 #include <cstdint>
 
-#include "lslam/factors/pose_graph_2d.h"
 #include "lslam/linear/colamd_ordering.h"
 #include "lslam/linear/incremental_cholesky.h"
 #include "lslam/linear/index.h"
@@ -21,10 +24,11 @@ struct OrderingArrays {
   Index* count_scratch = nullptr;
 };
 
+template <class Graph, class Factor>
 class OrderingPolicy {
  public:
-  OrderingPolicy(const OrderingArrays& arrays, const ColamdArrays& colamd, const PoseGraph2D& graph,
-                 const IncrementalCholesky<3>& factor, const SolverOptions& options)
+  OrderingPolicy(const OrderingArrays& arrays, const ColamdArrays& colamd, const Graph& graph,
+                 const Factor& factor, const SolverOptions& options)
       : a_(arrays), colamd_(colamd), graph_(graph), factor_(factor), options_(options) {}
 
   // The order in use: position_of[variable], variable_at[position].
@@ -80,8 +84,8 @@ class OrderingPolicy {
 
   OrderingArrays a_;
   ColamdOrdering colamd_;
-  const PoseGraph2D& graph_;
-  const IncrementalCholesky<3>& factor_;
+  const Graph& graph_;
+  const Factor& factor_;
   const SolverOptions& options_;
   int active_ = 0;
   Index blocks_at_last_order_ = 0;

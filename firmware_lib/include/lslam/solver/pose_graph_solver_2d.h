@@ -126,9 +126,9 @@ class PoseGraphSolver2D {
   // The units.
   Gauge gauge_;
   UpdateValidator validator_;
-  OrderingPolicy ordering_;
-  RelinearizationPolicy relinearization_;
-  FactorizationDriver driver_;
+  OrderingPolicy<PoseGraph2D, IncrementalCholesky<3>> ordering_;
+  RelinearizationPolicy<PoseGraph2D, IncrementalCholesky<3>> relinearization_;
+  FactorizationDriver<PoseGraph2D, IncrementalCholesky<3>> driver_;
 };
 
 namespace detail {

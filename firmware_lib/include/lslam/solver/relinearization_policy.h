@@ -3,14 +3,16 @@
 // candidates a solve leaves (their delta past the threshold), the urgency and skip rules, the
 // partial bar outside a reordering, and the list of variables an update stages.
 //
-// The bars are those of one kind of variable (RelinearizationBars); a kind with bars of its own
-// will select them per variable where barsOf() is read.
+// Each variable is measured against the bars of its kind (RelinearizationBars: its kind's
+// threshold, relinearize_threshold_of_kind; the urgent and partial options are shared). A template
+// over the graph and the factor, defined and instantiated for the solver's pairs in
+// relinearization_policy.cpp; GraphAdapter hides how each graph relinearizes a variable.
 #include <cstdint>
 
 #include "lslam/eigen.h"
-#include "lslam/factors/pose_graph_2d.h"
 #include "lslam/linear/incremental_cholesky.h"
 #include "lslam/linear/index.h"
+#include "lslam/solver/graph_adapter.h"
 #include "lslam/solver/solver_options.h"
 
 namespace lslam {
@@ -39,10 +41,14 @@ struct FullRefactorizationCost {
   Index blocks = 0;
 };
 
+template <class Graph, class Factor>
 class RelinearizationPolicy {
  public:
-  RelinearizationPolicy(const RelinearizationArrays& arrays, PoseGraph2D& graph,
-                        const IncrementalCholesky<3>& factor, const SolverOptions& options);
+  // A variable's solution (the factor's Vector: a variable of a smaller kind in its head).
+  using Vector = typename Factor::Vector;
+
+  RelinearizationPolicy(const RelinearizationArrays& arrays, Graph& graph, const Factor& factor,
+                        const SolverOptions& options);
 
   // The variables staged by the update in progress (stageCandidates, stageEveryMovedVariable).
   const Index* staged() const { return a_.staged; }
@@ -52,9 +58,9 @@ class RelinearizationPolicy {
   bool partialLeavesWaiting() const;
   // Stages the candidates in `range` (their points moved to lin (+) delta) and lists them in
   // staged() from position `count` on; returns the count after them.
-  Index stageCandidates(CandidateRange range, const Vec3* delta, Index count);
+  Index stageCandidates(CandidateRange range, const Vector* delta, Index count);
   // Stages every variable whose delta exceeds `tolerance` (Gauss-Newton); returns their count.
-  Index stageEveryMovedVariable(const Vec3* delta, double tolerance);
+  Index stageEveryMovedVariable(const Vector* delta, double tolerance);
   // Whether relinearizing `relinearized` variables should refactorize every column rather than
   // recompute the affected ones in place. in_place_products() estimates the in-place work (it is
   // called only when the cheaper rules do not decide).
@@ -74,18 +80,27 @@ class RelinearizationPolicy {
   // After a solve that visited the columns visited[0 .. count) (positions in variable_at's order).
   void noteCandidates(const Index* visited, Index count, const Index* variable_at);
   // After a committed update: relinearized (the candidates were due) or not.
-  void noteUpdate(bool relinearized, const Vec3* delta);
+  void noteUpdate(bool relinearized, const Vector* delta);
   // Every candidate relinearized (Gauss-Newton).
   void clearCandidates();
 
  private:
-  RelinearizationBars barsOf() const;
+  using Adapter = GraphAdapter<Graph>;
+  static constexpr int kKinds = Adapter::kKinds;
+  // The bars of every kind of variable, by kind.
+  struct Bars {
+    RelinearizationBars of[kKinds];
+  };
+  Bars bars() const;
+  int kindOf(Index v) const;
+  // How far a variable of `kind` moved from its linearization point (max-norm over its size).
+  double movedBy(int kind, const Vector& delta) const;
   bool relinearizesMost(Index relinearized) const;
-  void keepWaitingCandidates(const Vec3* delta);
+  void keepWaitingCandidates(const Vector* delta);
 
   RelinearizationArrays a_;
-  PoseGraph2D& graph_;
-  const IncrementalCholesky<3>& factor_;
+  Graph& graph_;
+  const Factor& factor_;
   const SolverOptions& options_;
   Index candidate_count_ = 0;
   Index updates_since_relinearization_ = 0;

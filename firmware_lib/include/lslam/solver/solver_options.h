@@ -10,6 +10,10 @@ struct SolverOptions {
   // the current estimate) when its solution delta moved more than this far from its linearization
   // point (max-norm over x, y in meters and theta in radians).
   double relinearize_threshold = 0.01;
+  // The threshold per variable kind of a model (pose, landmark; a 2D pose graph has only the
+  // pose): 0 takes relinearize_threshold. A landmark's delta is in its own units (meters), which
+  // may call for another bar than a pose's mix of meters and radians.
+  double relinearize_threshold_of_kind[2] = {0.0, 0.0};
   // When candidates are relinearized: all together, at the next update after one of them passes
   // relinearize_urgent_threshold (a large step taken at a stale linearization point is where the
   // estimate loses accuracy), at every reordering (where the full refactorization makes it free),
