@@ -18,8 +18,8 @@ lslam::SE3 poseAbout(double angle, const lslam::Vec3& axis, const lslam::Vec3& t
 }
 
 TEST_CASE("variable inputs round-trip every kind and check their values") {
-  using In2 = lslam::VariableInput<lslam::Slam2D>;
-  using In3 = lslam::VariableInput<lslam::Slam3D>;
+  using In2 = lslam::ModelVariableInput<lslam::Slam2D>;
+  using In3 = lslam::ModelVariableInput<lslam::Slam3D>;
   static_assert(In2::kValueSize == 3 && In3::kValueSize == 7);
   const In2 pose = In2::make(4, lslam::SE2(1.0, -2.0, 3.0));
   CHECK(pose.kind == 0);
@@ -46,8 +46,8 @@ TEST_CASE("variable inputs round-trip every kind and check their values") {
 }
 
 TEST_CASE("factor inputs round-trip every kind and check their measurements and information") {
-  using F2 = lslam::FactorInput<lslam::Slam2D>;
-  using F3 = lslam::FactorInput<lslam::Slam3D>;
+  using F2 = lslam::ModelFactorInput<lslam::Slam2D>;
+  using F3 = lslam::ModelFactorInput<lslam::Slam3D>;
   static_assert(F2::kMaxErrorDim == 3 && F3::kMaxErrorDim == 6 && F3::kMeasurementSize == 7);
   const lslam::Mat3 info3 = lslam::Vec3(4.0, 5.0, 6.0).asDiagonal();
   const F2 between = F2::make<lslam::BetweenSE2Factor>(1, 2, lslam::SE2(1.0, 0.0, 0.1), info3);

@@ -20,8 +20,8 @@ using lslam::Status;
 
 template <class Model, Index MaxPoses, Index MaxLandmarks>
 struct Fixture {
-  using Var = lslam::VariableInput<Model>;
-  using Fac = lslam::FactorInput<Model>;
+  using Var = lslam::ModelVariableInput<Model>;
+  using Fac = lslam::ModelFactorInput<Model>;
   lslam::StaticFactorGraphStorage<Model, MaxPoses, MaxLandmarks, 32, 32 * 50> storage;
   lslam::FactorGraph<Model> graph{storage.arrays()};
   lslam::StaticIdMapStorage<MaxPoses> pose_ids_storage;
@@ -32,11 +32,12 @@ struct Fixture {
   std::uint8_t held[MaxPoses + MaxLandmarks + 1] = {};
   lslam::ModelUpdateValidator<Model> validator{held, graph, maps};
 
-  Status validate(const std::vector<Var>& vars, const std::vector<Fac>& facs, bool anchor = false,
-                  bool drop_anchor = false) {
+  // anchored: the input the solver anchors (kNoIndex: none).
+  Status validate(const std::vector<Var>& vars, const std::vector<Fac>& facs,
+                  Index anchored = lslam::kNoIndex, bool drop_anchor = false) {
     Index priors = 0;
     return validator.validate(vars.data(), static_cast<Index>(vars.size()), facs.data(),
-                              static_cast<Index>(facs.size()), anchor, 12, drop_anchor, &priors);
+                              static_cast<Index>(facs.size()), anchored, 12, drop_anchor, &priors);
   }
   // Adds the variables to the graph (as a solver would after an Ok), committed.
   void commit(const std::vector<Var>& vars) {
@@ -54,8 +55,8 @@ struct Fixture {
   }
 };
 
-using Var2 = lslam::VariableInput<lslam::Slam2D>;
-using Fac2 = lslam::FactorInput<lslam::Slam2D>;
+using Var2 = lslam::ModelVariableInput<lslam::Slam2D>;
+using Fac2 = lslam::ModelFactorInput<lslam::Slam2D>;
 const lslam::Mat3 kInfo3 = lslam::Mat3::Identity();
 const lslam::Mat2 kInfo2 = lslam::Mat2::Identity();
 
@@ -71,7 +72,7 @@ TEST_CASE("a landmark enters with its observation; a pose needs a between factor
   auto fx = std::make_unique<Fixture<lslam::Slam2D, 8, 4>>();
   // The first pose, held by the anchor, and landmark 0 seen from it.
   const std::vector<Var2> first = {Var2::make(0, lslam::SE2()), Var2::make(0, lslam::Point2())};
-  REQUIRE(fx->validate(first, {seen(0, 0)}, true) == Status::Ok);
+  REQUIRE(fx->validate(first, {seen(0, 0)}, 0) == Status::Ok);
   CHECK(fx->validator.find(0, 0) == 0);
   CHECK(fx->validator.find(1, 0) == 1);  // pose 0 and landmark 0: two id spaces
   fx->commit(first);
@@ -96,7 +97,7 @@ TEST_CASE(
     "ids, kinds, inputs and capacities are checked per kind, and a rejection undoes its ids") {
   auto fx = std::make_unique<Fixture<lslam::Slam2D, 4, 2>>();
   const std::vector<Var2> first = {Var2::make(0, lslam::SE2())};
-  REQUIRE(fx->validate(first, {}, true) == Status::Ok);
+  REQUIRE(fx->validate(first, {}, 0) == Status::Ok);
   fx->commit(first);
   CHECK(fx->validate({Var2::make(0, lslam::SE2())}, {}) == Status::DuplicateVariable);
   CHECK(fx->validate({Var2::make(7, lslam::Point2())}, {seen(0, 8)}) == Status::UnknownVariable);
@@ -119,29 +120,43 @@ TEST_CASE(
   CHECK(fx->validator.find(0, 1) == lslam::kNoIndex);
 }
 
+TEST_CASE("the anchor holds the input it names") {
+  auto fx = std::make_unique<Fixture<lslam::Slam2D, 4, 2>>();
+  // Landmark first, pose second: anchoring input 1 (the pose) holds both; input 0 (the landmark)
+  // holds the landmark alone, which cannot hold the pose.
+  const std::vector<Var2> first = {Var2::make(0, lslam::Point2()), Var2::make(0, lslam::SE2())};
+  CHECK(fx->validate(first, {seen(0, 0)}, 0) == Status::UnconstrainedVariable);
+  CHECK(fx->validate(first, {seen(0, 0)}, 2) == Status::InvalidArgument);
+  CHECK(fx->validate(first, {seen(0, 0)}) == Status::UnconstrainedVariable);
+  CHECK(fx->validator.find(0, 0) == lslam::kNoIndex);
+  CHECK(fx->validate(first, {seen(0, 0)}, 1) == Status::Ok);
+  CHECK(fx->validator.find(0, 0) == 1);
+  CHECK(fx->validator.find(1, 0) == 0);
+}
+
 TEST_CASE("taking the anchor out needs a prior that holds the committed graph") {
   auto fx = std::make_unique<Fixture<lslam::Slam2D, 4, 2>>();
   const std::vector<Var2> first = {Var2::make(0, lslam::SE2()), Var2::make(1, lslam::SE2())};
-  REQUIRE(fx->validate(first, {between(0, 1)}, true) == Status::Ok);
+  REQUIRE(fx->validate(first, {between(0, 1)}, 0) == Status::Ok);
   fx->commit(first);
   const Fac2 prior_on_2 = Fac2::make<lslam::PriorSE2Factor>(2, lslam::SE2(), kInfo3);
   // Pose 2 held by its own prior, but nothing ties it to the map: the map would float.
-  CHECK(fx->validate({Var2::make(2, lslam::SE2())}, {prior_on_2}, false, true) ==
+  CHECK(fx->validate({Var2::make(2, lslam::SE2())}, {prior_on_2}, lslam::kNoIndex, true) ==
         Status::UnconstrainedVariable);
-  CHECK(fx->validate({Var2::make(2, lslam::SE2())}, {prior_on_2, between(1, 2)}, false, true) ==
-        Status::Ok);
+  CHECK(fx->validate({Var2::make(2, lslam::SE2())}, {prior_on_2, between(1, 2)}, lslam::kNoIndex,
+                     true) == Status::Ok);
 }
 
 TEST_CASE("3D: a point observation holds its point, not its pose; quaternions are checked") {
-  using Var3 = lslam::VariableInput<lslam::Slam3D>;
-  using Fac3 = lslam::FactorInput<lslam::Slam3D>;
+  using Var3 = lslam::ModelVariableInput<lslam::Slam3D>;
+  using Fac3 = lslam::ModelFactorInput<lslam::Slam3D>;
   auto fx = std::make_unique<Fixture<lslam::Slam3D, 4, 2>>();
   const auto obs = [](lslam::VariableId p, lslam::VariableId l) {
     return Fac3::make<lslam::PointObservationSE3Factor>(p, l, lslam::Vec3(1, 2, 3),
                                                         lslam::Mat3::Identity());
   };
   const std::vector<Var3> first = {Var3::make(0, lslam::SE3()), Var3::make(0, lslam::Point3())};
-  REQUIRE(fx->validate(first, {obs(0, 0)}, true) == Status::Ok);
+  REQUIRE(fx->validate(first, {obs(0, 0)}, 0) == Status::Ok);
   fx->commit(first);
   CHECK(fx->validate({Var3::make(1, lslam::SE3())}, {obs(1, 0)}) == Status::UnconstrainedVariable);
   const lslam::SE3 long_q(lslam::SO3(Eigen::Quaterniond(1.0, 0.1, 0.0, 0.0)), lslam::Vec3::Zero());

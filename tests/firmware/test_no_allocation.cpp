@@ -29,6 +29,7 @@
 #include <malloc.h>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <atomic>
 #include <cerrno>
 #include <cmath>
@@ -46,7 +47,10 @@
 #include "host_sim/steps.h"
 #include "host_sim/synthetic.h"
 #include "lslam/factors/information.h"
+#include "lslam/models/slam_2d.h"
+#include "lslam/models/slam_3d.h"
 #include "lslam/solver/pose_graph_solver_2d.h"
+#include "lslam/solver/smoother.h"
 
 // glibc's allocator under its own names (exported for exactly this use).
 extern "C" {
@@ -953,6 +957,127 @@ TEST_CASE("no heap allocation in solve(), optimize() and the estimate's reads") 
     CHECK(estimates[i].y() == estimates_at[i].y());
     CHECK(estimates[i].theta() == estimates_at[i].theta());
   }
+}
+
+namespace {
+
+// Short streams of the model smoother (Smoother<Model>, StaticSmoother): a 3D pose graph with
+// loop closures and point observations, and a 2D walk among landmarks seen by position and by
+// range-bearing. Every input is built here, before counting.
+template <class Model>
+struct ModelStep {
+  std::vector<ModelVariableInput<Model>> variables;
+  std::vector<lslam::ModelFactorInput<Model>> factors;
+};
+
+std::vector<ModelStep<Slam3D>> stream3D(int poses) {
+  using Var = ModelVariableInput<Slam3D>;
+  using Fac = lslam::ModelFactorInput<Slam3D>;
+  std::vector<ModelStep<Slam3D>> steps(static_cast<std::size_t>(poses));
+  const Eigen::Quaterniond turn(Eigen::AngleAxisd(0.3, Vec3(0.1, 0.2, 1.0).normalized()));
+  const SE3 move(SO3(turn), Vec3(1.0, 0.1, 0.05));
+  std::vector<Eigen::Isometry3d> truth;
+  for (int k = 0; k < poses; ++k) {
+    Eigen::Isometry3d x = Eigen::Isometry3d::Identity();
+    if (k > 0) x = truth.back() * (Eigen::Translation3d(1.0, 0.1, 0.05) * turn);
+    truth.push_back(x);
+    ModelStep<Slam3D>& st = steps[static_cast<std::size_t>(k)];
+    st.variables.push_back(Var::make(k, SE3(SO3(Eigen::Quaterniond(x.linear()).normalized()),
+                                            x.translation() + Vec3(0.01 * k, 0, 0))));
+    if (k > 0) st.factors.push_back(Fac::make<BetweenSE3Factor>(k - 1, k, move, Mat6::Identity()));
+    if (k >= 10 && k % 5 == 0) {
+      const Eigen::Isometry3d rel = truth[static_cast<std::size_t>(k - 10)].inverse() * x;
+      st.factors.push_back(Fac::make<BetweenSE3Factor>(
+          k - 10, k, SE3(SO3(Eigen::Quaterniond(rel.linear()).normalized()), rel.translation()),
+          Mat6::Identity()));
+    }
+    // Landmark k / 4, first seen here, then seen again from the next three poses.
+    if (k % 4 == 0)
+      st.variables.push_back(ModelVariableInput<Slam3D>::make(k / 4, Point3(x * Vec3(2, 1, 0))));
+    st.factors.push_back(Fac::make<PointObservationSE3Factor>(
+        k, k / 4, Vec3(2.0 - 0.1 * (k % 4), 1, 0), Mat3::Identity()));
+  }
+  return steps;
+}
+
+std::vector<ModelStep<Slam2D>> stream2D(int poses) {
+  using Var = ModelVariableInput<Slam2D>;
+  using Fac = lslam::ModelFactorInput<Slam2D>;
+  std::vector<ModelStep<Slam2D>> steps(static_cast<std::size_t>(poses));
+  SE2 x(0.0, 0.0, 0.0);
+  const SE2 move(1.0, 0.0, 0.2);
+  for (int k = 0; k < poses; ++k) {
+    if (k > 0) x = x.compose(move);
+    ModelStep<Slam2D>& st = steps[static_cast<std::size_t>(k)];
+    st.variables.push_back(Var::make(k, SE2(x.x() + 0.02 * k, x.y(), x.theta())));
+    if (k > 0) st.factors.push_back(Fac::make<BetweenSE2Factor>(k - 1, k, move, Mat3::Identity()));
+    if (k % 3 == 0) st.variables.push_back(Var::make(k / 3, Point2(x.transformFrom(Vec2(2, 1)))));
+    st.factors.push_back(Fac::make<PointObservationSE2Factor>(
+        k, k / 3, Vec2(2.0, 1.0 + 0.1 * (k % 3)), Mat2::Identity()));
+    if (k >= 3) {
+      st.factors.push_back(Fac::make<RangeBearingSE2Factor>(
+          k, k / 3 - 1, Vec2(3.0, 0.5 + 0.05 * (k % 5)), Mat2::Identity()));
+    }
+  }
+  return steps;
+}
+
+// Every step, a rejected update (an unknown id) before each, solve(true), optimize(), chi2() and
+// the estimate's reads, all in one counted span; then checks that each of them ran.
+template <class Model, class Solver>
+void runModelStreamCounted(Solver& solver, const std::vector<ModelStep<Model>>& steps,
+                           const std::string& span) {
+  using Pose = lslam::TypeAtT<0, typename Model::Variables>;
+  using Landmark = lslam::TypeAtT<1, typename Model::Variables>;
+  std::vector<Status> statuses(steps.size(), Status::Ok);
+  std::vector<Status> rejected(steps.size(), Status::Ok);
+  std::vector<ModelStep<Model>> bad = steps;
+  for (ModelStep<Model>& b : bad) b.factors.back().ids[0] = 100000;
+  UpdateResult optimized;
+  Status optimize_status = Status::InvalidArgument;
+  Status pose_read = Status::InvalidArgument;
+  Status landmark_read = Status::InvalidArgument;
+  double chi2 = -1.0;
+  Pose p;
+  Landmark l;
+  const HeapCalls calls = countHeapCalls([&] {
+    for (std::size_t k = 0; k < steps.size(); ++k) {
+      const ModelStep<Model>& b = bad[k];
+      rejected[k] = solver.update(b.variables.data(), static_cast<Index>(b.variables.size()),
+                                  b.factors.data(), static_cast<Index>(b.factors.size()));
+      const ModelStep<Model>& st = steps[k];
+      statuses[k] = solver.update(st.variables.data(), static_cast<Index>(st.variables.size()),
+                                  st.factors.data(), static_cast<Index>(st.factors.size()));
+    }
+    solver.solve(true);
+    optimize_status = solver.optimize(10, 1e-9, &optimized);
+    chi2 = solver.chi2();
+    pose_read = solver.estimate(VariableId{2}, &p);
+    landmark_read = solver.estimate(VariableId{1}, &l);
+  });
+  checkNoHeapCalls(calls, span);
+  CHECK(countNotOk(statuses) == 0);
+  for (Status s : rejected) CHECK(s == Status::UnknownVariable);
+  CHECK(solver.poses() == static_cast<Index>(steps.size()));
+  CHECK(solver.landmarks() > 5);
+  CHECK(optimize_status == Status::Ok);
+  CHECK(optimized.iterations > 0);
+  CHECK(std::isfinite(chi2));
+  CHECK(pose_read == Status::Ok);
+  CHECK(landmark_read == Status::Ok);
+}
+
+}  // namespace
+
+TEST_CASE("no heap allocation in the model smoother: a 3D stream and a 2D landmark stream") {
+  const std::vector<ModelStep<Slam3D>> steps3 = stream3D(60);
+  const std::vector<ModelStep<Slam2D>> steps2 = stream2D(60);
+  auto smoother3 =
+      std::make_unique<StaticSmoother<Slam3D, 64, 20, 256, 256 * 43, 4000, 4000 * 36>>();
+  auto smoother2 =
+      std::make_unique<StaticSmoother<Slam2D, 64, 24, 256, 256 * 12, 4000, 4000 * 9>>();
+  runModelStreamCounted<Slam3D>(*smoother3, steps3, "3D smoother stream");
+  runModelStreamCounted<Slam2D>(*smoother2, steps2, "2D landmark smoother stream");
 }
 
 #else  // !defined(__GLIBC__)

@@ -8,9 +8,10 @@
 namespace lslam {
 
 template <class Model>
-Status ModelUpdateValidator<Model>::validate(const VariableInput<Model>* variables,
-                                             Index num_variables, const FactorInput<Model>* factors,
-                                             Index num_factors, bool anchor,
+Status ModelUpdateValidator<Model>::validate(const ModelVariableInput<Model>* variables,
+                                             Index num_variables,
+                                             const ModelFactorInput<Model>* factors,
+                                             Index num_factors, Index anchored,
                                              Index anchor_factor_values, bool drop_anchor,
                                              Index* pose_priors) {
   *pose_priors = 0;
@@ -18,6 +19,10 @@ Status ModelUpdateValidator<Model>::validate(const VariableInput<Model>* variabl
       (num_factors > 0 && factors == nullptr)) {
     return Status::InvalidArgument;
   }
+  if (anchored != kNoIndex && (anchored < 0 || anchored >= num_variables)) {
+    return Status::InvalidArgument;
+  }
+  const bool anchor = anchored != kNoIndex;
   for (Index i = 0; i < num_variables; ++i) {
     const Status s = variables[i].check();
     if (s != Status::Ok) return s;
@@ -28,7 +33,7 @@ Status ModelUpdateValidator<Model>::validate(const VariableInput<Model>* variabl
   // The added ids enter the maps now, so that every lookup below is uniform; forgetIds() undoes it.
   Index inserted = 0;
   for (; inserted < num_variables; ++inserted) {
-    const VariableInput<Model>& in = variables[inserted];
+    const ModelVariableInput<Model>& in = variables[inserted];
     if (ids_[in.kind]->find(in.id) != kNoIndex) {
       status = Status::DuplicateVariable;
       break;
@@ -37,15 +42,15 @@ Status ModelUpdateValidator<Model>::validate(const VariableInput<Model>* variabl
   }
   if (status == Status::Ok) status = checkFactors(factors, num_factors, pose_priors);
   if (status == Status::Ok)
-    status = checkHeld(num_variables, factors, num_factors, anchor, drop_anchor);
+    status = checkHeld(num_variables, factors, num_factors, anchored, drop_anchor);
   if (status != Status::Ok) forgetIds(variables, inserted);
   return status;
 }
 
 template <class Model>
-Status ModelUpdateValidator<Model>::checkCapacity(const VariableInput<Model>* variables,
+Status ModelUpdateValidator<Model>::checkCapacity(const ModelVariableInput<Model>* variables,
                                                   Index num_variables,
-                                                  const FactorInput<Model>* factors,
+                                                  const ModelFactorInput<Model>* factors,
                                                   Index num_factors, bool anchor,
                                                   Index anchor_factor_values) const {
   Index of_kind[kVariableKinds] = {};
@@ -68,11 +73,11 @@ Status ModelUpdateValidator<Model>::checkCapacity(const VariableInput<Model>* va
 
 // Each factor's input check, and its ids known in the id spaces of its variables' kinds.
 template <class Model>
-Status ModelUpdateValidator<Model>::checkFactors(const FactorInput<Model>* factors,
+Status ModelUpdateValidator<Model>::checkFactors(const ModelFactorInput<Model>* factors,
                                                  Index num_factors, Index* pose_priors) const {
   Index priors = 0;
   for (Index f = 0; f < num_factors; ++f) {
-    const FactorInput<Model>& in = factors[f];
+    const ModelFactorInput<Model>& in = factors[f];
     const Status s = in.check();
     if (s != Status::Ok) return s;
     Status known = Status::Ok;
@@ -97,16 +102,17 @@ Status ModelUpdateValidator<Model>::checkFactors(const FactorInput<Model>* facto
 // variable and one for the committed graph as a whole (held unless drop_anchor).
 template <class Model>
 Status ModelUpdateValidator<Model>::checkHeld(Index num_variables,
-                                              const FactorInput<Model>* factors, Index num_factors,
-                                              bool anchor, bool drop_anchor) const {
+                                              const ModelFactorInput<Model>* factors,
+                                              Index num_factors, Index anchored,
+                                              bool drop_anchor) const {
   const Index first_added = graph_.variables();
   const Index committed = num_variables;
   for (Index i = 0; i < num_variables; ++i) held_[i] = 0;
   if (first_added > 0) held_[committed] = drop_anchor ? 0 : 1;
   Index held = 0;
   const Index required = num_variables + (drop_anchor ? 1 : 0);
-  if (anchor && num_variables > 0) {
-    held_[0] = 1;
+  if (anchored != kNoIndex) {
+    held_[anchored] = 1;
     held = 1;
   }
   const auto hold = [&](Index node) {
@@ -121,7 +127,7 @@ Status ModelUpdateValidator<Model>::checkHeld(Index num_variables,
   while (progress && held < required) {
     progress = false;
     for (Index f = 0; f < num_factors; ++f) {
-      const FactorInput<Model>& in = factors[f];
+      const ModelFactorInput<Model>& in = factors[f];
       visitKind<typename Model::Factors>(in.kind, [&](auto* tag) {
         using F = std::remove_pointer_t<decltype(tag)>;
         using Vars = typename F::Variables;
@@ -146,7 +152,8 @@ Status ModelUpdateValidator<Model>::checkHeld(Index num_variables,
 }
 
 template <class Model>
-void ModelUpdateValidator<Model>::forgetIds(const VariableInput<Model>* variables, Index count) {
+void ModelUpdateValidator<Model>::forgetIds(const ModelVariableInput<Model>* variables,
+                                            Index count) {
   for (Index i = count - 1; i >= 0; --i) ids_[variables[i].kind]->eraseNewest(variables[i].id);
 }
 

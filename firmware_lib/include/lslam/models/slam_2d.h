@@ -15,6 +15,8 @@ struct Slam2D {
   using Variables = TypeList<SE2, Point2>;
   using Factors = TypeList<PriorSE2Factor, BetweenSE2Factor, PriorPoint2Factor,
                            PointObservationSE2Factor, RangeBearingSE2Factor>;
+  // The factor the solver anchors the first pose with (see smoother.h, the gauge).
+  using PosePrior = PriorSE2Factor;
 };
 
 }  // namespace lslam

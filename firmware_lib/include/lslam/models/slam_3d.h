@@ -15,6 +15,8 @@ struct Slam3D {
   using Variables = TypeList<SE3, Point3>;
   using Factors =
       TypeList<PriorSE3Factor, BetweenSE3Factor, PriorPoint3Factor, PointObservationSE3Factor>;
+  // The factor the solver anchors the first pose with (see smoother.h, the gauge).
+  using PosePrior = PriorSE3Factor;
 };
 
 }  // namespace lslam

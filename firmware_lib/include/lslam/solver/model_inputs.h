@@ -56,7 +56,7 @@ struct LargestFactor<TypeList<F...>> {
 }  // namespace detail
 
 template <class Model>
-struct VariableInput {
+struct ModelVariableInput {
   static constexpr int kValueSize = detail::LargestValue<typename Model::Variables>::kSize;
 
   std::uint8_t kind = 0;  // index into Model::Variables
@@ -64,8 +64,8 @@ struct VariableInput {
   double value[kValueSize] = {};
 
   template <class V>
-  static VariableInput make(VariableId id, const V& initial) noexcept {
-    VariableInput in;
+  static ModelVariableInput make(VariableId id, const V& initial) noexcept {
+    ModelVariableInput in;
     in.kind = static_cast<std::uint8_t>(kVariableKind<Model, V>);
     in.id = id;
     StoredValue<V>::store(initial, in.value);
@@ -90,7 +90,7 @@ struct VariableInput {
 };
 
 template <class Model>
-struct FactorInput {
+struct ModelFactorInput {
   static constexpr int kMeasurementSize =
       detail::LargestFactor<typename Model::Factors>::kMeasurement;
   static constexpr int kMaxErrorDim = detail::LargestFactor<typename Model::Factors>::kErrorDim;
@@ -102,9 +102,10 @@ struct FactorInput {
 
   // A factor on two variables (first, second), or on one (second ignored).
   template <class F>
-  static FactorInput make(VariableId first, VariableId second, const typename F::Measurement& z,
-                          const Eigen::Matrix<double, F::kErrorDim, F::kErrorDim>& info) noexcept {
-    FactorInput in;
+  static ModelFactorInput make(
+      VariableId first, VariableId second, const typename F::Measurement& z,
+      const Eigen::Matrix<double, F::kErrorDim, F::kErrorDim>& info) noexcept {
+    ModelFactorInput in;
     in.kind = static_cast<std::uint8_t>(kFactorKind<Model, F>);
     in.ids[0] = first;
     in.ids[1] = F::Variables::kSize == 2 ? second : first;
@@ -113,8 +114,9 @@ struct FactorInput {
     return in;
   }
   template <class F>
-  static FactorInput make(VariableId only, const typename F::Measurement& z,
-                          const Eigen::Matrix<double, F::kErrorDim, F::kErrorDim>& info) noexcept {
+  static ModelFactorInput make(
+      VariableId only, const typename F::Measurement& z,
+      const Eigen::Matrix<double, F::kErrorDim, F::kErrorDim>& info) noexcept {
     static_assert(F::Variables::kSize == 1, "a factor on one variable");
     return make<F>(only, only, z, info);
   }

@@ -1,9 +1,9 @@
 #pragma once
 // The checks a model's update passes before anything changes (the generic counterpart of
 // UpdateValidator): counts and capacities per kind, each input through its kind
-// (VariableInput::check, FactorInput::check), ids (duplicates, unknown ids, per id space), and
-// every added variable constrained. A rejected update leaves the id maps as they were; an
-// accepted one has the ids it adds in them.
+// (ModelVariableInput::check, ModelFactorInput::check), ids (duplicates, unknown ids, per id
+// space), and every added variable constrained. A rejected update leaves the id maps as they were;
+// an accepted one has the ids it adds in them.
 //
 // Constrained. An added variable must be held by this update's factors: by a prior, or by a
 // factor whose other variables are held and whose rows fix it alone. A factor fixes a variable
@@ -36,27 +36,29 @@ class ModelUpdateValidator {
     for (int k = 0; k < kVariableKinds; ++k) ids_[k] = ids[k];
   }
 
-  // anchor: the solver holds the first added pose itself (it adds a prior of `anchor_factor_values`
-  // doubles); drop_anchor: this update takes that prior out, so the committed graph must be held
-  // by this update's priors. On Ok the ids of `variables` are in the maps, with the indices they
-  // get in the graph (appended in input order). Counts the unary factors on poses in *pose_priors.
-  [[nodiscard]] Status validate(const VariableInput<Model>* variables, Index num_variables,
-                                const FactorInput<Model>* factors, Index num_factors, bool anchor,
-                                Index anchor_factor_values, bool drop_anchor, Index* pose_priors);
+  // anchored: the index in `variables` of the input the solver holds itself (it adds a prior of
+  // `anchor_factor_values` doubles on it; the first pose input), kNoIndex for none; drop_anchor:
+  // this update takes that prior out, so the committed graph must be held by this update's priors.
+  // On Ok the ids of `variables` are in the maps, with the indices they get in the graph (appended
+  // in input order). Counts the unary factors on poses in *pose_priors.
+  [[nodiscard]] Status validate(const ModelVariableInput<Model>* variables, Index num_variables,
+                                const ModelFactorInput<Model>* factors, Index num_factors,
+                                Index anchored, Index anchor_factor_values, bool drop_anchor,
+                                Index* pose_priors);
   // Takes the ids of the first `count` variables out of the maps again (newest first).
-  void forgetIds(const VariableInput<Model>* variables, Index count);
+  void forgetIds(const ModelVariableInput<Model>* variables, Index count);
 
   // The graph index of variable `id` of kind `kind` (kNoIndex if unknown).
   Index find(int kind, VariableId id) const { return ids_[kind]->find(id); }
 
  private:
-  Status checkCapacity(const VariableInput<Model>* variables, Index num_variables,
-                       const FactorInput<Model>* factors, Index num_factors, bool anchor,
+  Status checkCapacity(const ModelVariableInput<Model>* variables, Index num_variables,
+                       const ModelFactorInput<Model>* factors, Index num_factors, bool anchor,
                        Index anchor_factor_values) const;
-  Status checkFactors(const FactorInput<Model>* factors, Index num_factors,
+  Status checkFactors(const ModelFactorInput<Model>* factors, Index num_factors,
                       Index* pose_priors) const;
-  Status checkHeld(Index num_variables, const FactorInput<Model>* factors, Index num_factors,
-                   bool anchor, bool drop_anchor) const;
+  Status checkHeld(Index num_variables, const ModelFactorInput<Model>* factors, Index num_factors,
+                   Index anchored, bool drop_anchor) const;
 
   std::uint8_t* held_;
   const FactorGraph<Model>& graph_;

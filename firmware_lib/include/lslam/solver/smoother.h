@@ -1,0 +1,271 @@
+#pragma once
+// The incremental solver of any model (models/slam_2d.h, slam_3d.h): the generic counterpart of
+// PoseGraphSolver2D, with its update, gauge and rejection semantics (see pose_graph_solver_2d.h),
+// over a FactorGraph<Model> and the factor of the model's mixed block sizes.
+//
+// Two phases: StaticSmoother holds every array (capacities per kind as template parameters);
+// Smoother<Model> works on pointers and counts and never allocates. It is compiled for Slam2D and
+// Slam3D in smoother.cpp.
+//
+// A call that returns anything but Status::Ok has changed no value (the inputs are validated
+// before any change, the factorization stages until it has succeeded).
+//
+// Variables and ids. A ModelVariableInput names its kind and an id in that kind's id space (pose 4
+// and landmark 4 are two variables); a ModelFactorInput names its kind and its variables' ids in
+// the order of its kind's Variables. Each added variable must be held by the update's factors
+// (ModelUpdateValidator): a landmark by an observation or a prior, a pose by a between factor to a
+// held pose or a prior (not by landmarks alone).
+//
+// The gauge, as in PoseGraphSolver2D: when the first update brings no prior on a pose of the
+// caller's, the solver anchors the first pose input with Model::PosePrior (information
+// Identity * SolverOptions::anchor_information, at its initial value); the update that brings the
+// caller's first pose prior takes the anchor out (disablePrior) and refactorizes every column.
+// chi2() sums the caller's factors only.
+//
+// Relinearization thresholds per kind (SolverOptions::relinearize_threshold_of_kind, max-norm of a
+// variable's delta). The defaults {0, 0} take relinearize_threshold (0.01) for both kinds:
+//  - Slam2D: pose (x, y in meters, theta in radians) 0.01; landmark (x, y in meters) 0.01;
+//  - Slam3D: pose (body-frame translation in meters, rotation vector in radians) 0.01; landmark
+//    (x, y, z in meters) 0.01.
+// A map in other units (millimetres, kilometres) sets the landmark's bar to its own scale.
+#include <cstdint>
+#include <type_traits>
+
+#include "lslam/eigen.h"
+#include "lslam/graph/factor_graph.h"
+#include "lslam/linear/colamd_ordering.h"
+#include "lslam/linear/incremental_cholesky.h"
+#include "lslam/models/model_traits.h"
+#include "lslam/solver/factorization_driver.h"
+#include "lslam/solver/gauge.h"
+#include "lslam/solver/id_map.h"
+#include "lslam/solver/model_inputs.h"
+#include "lslam/solver/model_update_validator.h"
+#include "lslam/solver/ordering_policy.h"
+#include "lslam/solver/relinearization_policy.h"
+#include "lslam/solver/solver_options.h"
+#include "lslam/solver/update_result.h"
+
+namespace lslam {
+
+namespace detail {
+
+// IncrementalCholesky and CholeskyArrays of a BlockSizes<...>.
+template <class Sizes>
+struct CholeskyTypesOf;
+template <int... S>
+struct CholeskyTypesOf<BlockSizes<S...>> {
+  using Factor = IncrementalCholesky<S...>;
+  using Arrays = CholeskyArrays<S...>;
+};
+
+}  // namespace detail
+
+// Everything the smoother works in besides its parts' own arrays: max_variables entries each
+// (the sum of the per-kind capacities), held: max_variables + 1. Each array belongs to one unit.
+template <class Model>
+struct SmootherArrays {
+  using Vector = Eigen::Matrix<double, ModelBlockSizes<Model>::kMax, 1>;
+  Index* position_of[2] = {nullptr, nullptr};  // OrderingPolicy: the order, double-buffered
+  Index* variable_at[2] = {nullptr, nullptr};
+  Index* ordering_parent = nullptr;  // OrderingPolicy: scratch of a computed ordering's postorder
+  Index* ordering_count = nullptr;
+  VariableId* id_of = nullptr;        // the smoother: each variable's id (in its kind's id space)
+  Vector* delta = nullptr;            // the smoother: the solution (a smaller kind in the head)
+  Index* visited = nullptr;           // the smoother: the solve's visit list
+  Index* relinearize_list = nullptr;  // RelinearizationPolicy: the candidates
+  std::uint8_t* relinearize_flag = nullptr;
+  Index* marked = nullptr;          // RelinearizationPolicy: the variables the update relinearizes
+  Index* last_list = nullptr;       // FactorizationDriver: positions kept last by a reordered top
+  std::uint8_t* in_last = nullptr;  // per position: already in last_list
+  std::uint8_t* held = nullptr;     // ModelUpdateValidator: max_variables + 1 flags
+};
+
+template <class Model>
+class Smoother {
+ public:
+  using Graph = FactorGraph<Model>;
+  using Factor = typename detail::CholeskyTypesOf<ModelBlockSizes<Model>>::Factor;
+  using FactorArrays = typename detail::CholeskyTypesOf<ModelBlockSizes<Model>>::Arrays;
+  using Vector = typename Factor::Vector;
+  using Variable = ModelVariableInput<Model>;
+  using Measurement = ModelFactorInput<Model>;
+  using Pose = TypeAtT<0, typename Model::Variables>;
+  static constexpr int kKinds = Model::Variables::kSize;
+  static_assert(kKinds == 2, "a pose kind and a landmark kind (each with its id map)");
+
+  // ids: one map per variable kind (kKinds of them). The factor's variable_kind is set here to the
+  // graph's kinds.
+  Smoother(const SmootherArrays<Model>& arrays, const FactorGraphArrays& graph,
+           const FactorArrays& factor, const ColamdArrays& ordering, const IdMapArrays* ids,
+           const SolverOptions& options);
+  Smoother(const Smoother&) = delete;
+  Smoother& operator=(const Smoother&) = delete;
+
+  // Adds variables and measurements (each added variable held by this call's factors, see above),
+  // updates the factor and, by default, the solution.
+  [[nodiscard]] Status update(const Variable* variables, Index num_variables,
+                              const Measurement* factors, Index num_factors,
+                              UpdateResult* result = nullptr);
+  // Back-substitution on demand (partial per options, or full).
+  void solve(bool full, UpdateResult* result = nullptr);
+  // Gauss-Newton to convergence: relinearize every variable that moved, refactor, solve, until the
+  // largest step is below `tolerance` or `max_iterations` were done.
+  [[nodiscard]] Status optimize(Index max_iterations, double tolerance,
+                                UpdateResult* result = nullptr);
+
+  // The current estimate (lin (+) delta) of variable `id` of kind V, in V's id space.
+  template <class V>
+  [[nodiscard]] Status estimate(VariableId id, V* out) const {
+    if (out == nullptr) return Status::InvalidArgument;
+    const Index v = ids_[kVariableKind<Model, V>].find(id);
+    if (v == kNoIndex) return Status::UnknownVariable;
+    *out = estimateAt<V>(v);
+    return Status::Ok;
+  }
+  // The estimate of graph variable `variable` (of kind V).
+  template <class V>
+  V estimateAt(Index variable) const {
+    return graph_.template estimate<V>(variable, delta_[variable]);
+  }
+  // The solution's step of a variable from its linearization point (its kind's size in the head).
+  const Vector& deltaAt(Index variable) const { return delta_[variable]; }
+  VariableId idAt(Index variable) const { return id_of_[variable]; }
+  int kindAt(Index variable) const { return graph_.variableKind(variable); }
+  // Sum of e^T Omega e over the caller's factors at the current estimate (the anchor not).
+  double chi2() const;
+
+  Index variables() const { return graph_.variables(); }
+  Index variablesOfKind(int kind) const { return graph_.variablesOfKind(kind); }
+  Index poses() const { return graph_.variablesOfKind(0); }
+  Index landmarks() const { return kKinds > 1 ? graph_.variablesOfKind(kKinds - 1) : 0; }
+  Index factors() const { return graph_.factors(); }
+  Index factorBlocks() const { return cholesky_.liveBlocks(); }
+  // The solver's anchor factor while it is in the problem, else kNoIndex.
+  Index anchorFactor() const { return gauge_.anchorFactor(); }
+  const SolverOptions& options() const { return options_; }
+  void setOptions(const SolverOptions& options) { options_ = options; }
+  const Graph& graph() const { return graph_; }
+  const Factor& factor() const { return cholesky_; }
+  const Index* positionOf() const { return ordering_.positionOf(); }
+  const Index* variableAt() const { return ordering_.variableAt(); }
+
+ private:
+  UpdatePlan planUpdate(Index new_variables, bool drop_anchor);
+  Status refactor(Index new_variables, const UpdatePlan& plan, bool allow_reorder,
+                  UpdateResult& result);
+  void addInputs(const Variable* variables, Index num_variables, const Measurement* factors,
+                 Index num_factors);
+
+  // The parts (the units below hold references to them: declared first).
+  SolverOptions options_;
+  Graph graph_;
+  Factor cholesky_;
+  IdMap ids_[kKinds];
+  IdMap* id_maps_[kKinds];
+  // The solution bookkeeping.
+  VariableId* id_of_;
+  Vector* delta_;
+  Index* visited_;
+  // The units.
+  Gauge gauge_;
+  ModelUpdateValidator<Model> validator_;
+  OrderingPolicy<Graph, Factor> ordering_;
+  RelinearizationPolicy<Graph, Factor> relinearization_;
+  FactorizationDriver<Graph, Factor> driver_;
+};
+
+namespace detail {
+
+// The memory of a smoother, a base class so that it is built before the smoother that points into
+// it.
+template <class Model, Index MaxPoses, Index MaxLandmarks, Index MaxFactors, Index MaxFactorValues,
+          Index MaxFactorBlocks, Index MaxFactorBlockValues>
+class SmootherStorage {
+ protected:
+  static constexpr Index kMaxVariables = MaxPoses + MaxLandmarks;
+  using Vector = typename SmootherArrays<Model>::Vector;
+
+  StaticFactorGraphStorage<Model, MaxPoses, MaxLandmarks, MaxFactors, MaxFactorValues>
+      graph_storage_;
+  StaticCholeskyStorageFor<ModelBlockSizes<Model>, kMaxVariables, MaxFactorBlocks,
+                           MaxFactorBlockValues>
+      factor_storage_;
+  StaticColamdStorage<2 * MaxFactors, MaxFactors, kMaxVariables> ordering_storage_;
+  StaticIdMapStorage<MaxPoses> pose_id_storage_;
+  StaticIdMapStorage<MaxLandmarks> landmark_id_storage_;
+  Index position_of_[2][kMaxVariables];
+  Index variable_at_[2][kMaxVariables];
+  VariableId id_of_[kMaxVariables];
+  Vector delta_[kMaxVariables];
+  Index relinearize_list_[kMaxVariables];
+  std::uint8_t relinearize_flag_[kMaxVariables];
+  Index visited_[kMaxVariables];
+  Index marked_[kMaxVariables];
+  Index last_list_[kMaxVariables];
+  std::uint8_t in_last_[kMaxVariables];
+  Index ordering_parent_[kMaxVariables];
+  Index ordering_count_[kMaxVariables];
+  std::uint8_t held_[kMaxVariables + 1];
+  IdMapArrays id_arrays_[2];
+
+  SmootherArrays<Model> smootherArrays() {
+    SmootherArrays<Model> s;
+    for (int b = 0; b < 2; ++b) {
+      s.position_of[b] = position_of_[b];
+      s.variable_at[b] = variable_at_[b];
+    }
+    s.ordering_parent = ordering_parent_;
+    s.ordering_count = ordering_count_;
+    s.id_of = id_of_;
+    s.delta = delta_;
+    s.visited = visited_;
+    s.relinearize_list = relinearize_list_;
+    s.relinearize_flag = relinearize_flag_;
+    s.marked = marked_;
+    s.last_list = last_list_;
+    s.in_last = in_last_;
+    s.held = held_;
+    return s;
+  }
+  const IdMapArrays* idArrays() {
+    id_arrays_[0] = pose_id_storage_.arrays();
+    id_arrays_[1] = landmark_id_storage_.arrays();
+    return id_arrays_;
+  }
+};
+
+}  // namespace detail
+
+// A smoother with all its memory inside: MaxPoses variables of the model's pose kind and
+// MaxLandmarks of its landmark kind; MaxFactors measurements (the anchor takes one) and
+// MaxFactorValues doubles for them (kFactorValues<F> each: SE2 between 12, SE3 between 43, a 2D
+// landmark observation 6, a 3D one 12); MaxFactorBlocks blocks for the Cholesky factor (the live
+// factor plus room for the columns one update rewrites; leave about twice the expected fill) and
+// MaxFactorBlockValues doubles for their values (a block of rows r and columns c takes r * c:
+// MaxFactorBlocks * kMax^2 always suffices).
+template <class Model, Index MaxPoses, Index MaxLandmarks, Index MaxFactors, Index MaxFactorValues,
+          Index MaxFactorBlocks, Index MaxFactorBlockValues>
+class StaticSmoother
+    : private detail::SmootherStorage<Model, MaxPoses, MaxLandmarks, MaxFactors, MaxFactorValues,
+                                      MaxFactorBlocks, MaxFactorBlockValues>,
+      public Smoother<Model> {
+  using Storage = detail::SmootherStorage<Model, MaxPoses, MaxLandmarks, MaxFactors,
+                                          MaxFactorValues, MaxFactorBlocks, MaxFactorBlockValues>;
+
+ public:
+  static constexpr Index max_poses = MaxPoses;
+  static constexpr Index max_landmarks = MaxLandmarks;
+  static constexpr Index max_factors = MaxFactors;
+  static constexpr Index max_factor_values = MaxFactorValues;
+  static constexpr Index max_factor_blocks = MaxFactorBlocks;
+  static constexpr Index max_factor_block_values = MaxFactorBlockValues;
+
+  explicit StaticSmoother(const SolverOptions& options = SolverOptions{})
+      : Storage(),
+        Smoother<Model>(Storage::smootherArrays(), Storage::graph_storage_.arrays(),
+                        Storage::factor_storage_.arrays(), Storage::ordering_storage_.arrays(),
+                        Storage::idArrays(), options) {}
+};
+
+}  // namespace lslam

@@ -1,0 +1,308 @@
+#include "lslam/solver/smoother.h"
+
+#include <type_traits>
+
+#include "lslam/models/slam_2d.h"
+#include "lslam/models/slam_3d.h"
+
+namespace lslam {
+namespace {
+
+template <class Model>
+OrderingArrays orderingArrays(const SmootherArrays<Model>& a) {
+  OrderingArrays o;
+  for (int b = 0; b < 2; ++b) {
+    o.position_of[b] = a.position_of[b];
+    o.variable_at[b] = a.variable_at[b];
+  }
+  o.parent_scratch = a.ordering_parent;
+  o.count_scratch = a.ordering_count;
+  return o;
+}
+
+template <class Model>
+RelinearizationArrays relinearizationArrays(const SmootherArrays<Model>& a) {
+  RelinearizationArrays r;
+  r.candidates = a.relinearize_list;
+  r.is_candidate = a.relinearize_flag;
+  r.staged = a.marked;
+  return r;
+}
+
+template <class Model>
+FactorizationArrays factorizationArrays(const SmootherArrays<Model>& a) {
+  FactorizationArrays f;
+  f.last_list = a.last_list;
+  f.in_last = a.in_last;
+  return f;
+}
+
+// The factor reads each variable's kind from the graph.
+template <class Arrays>
+Arrays withKinds(Arrays factor, const std::uint8_t* kinds) {
+  factor.variable_kind = kinds;
+  return factor;
+}
+
+// The pose priors among the inputs (kinds outside the model count none: validation rejects them).
+template <class Model>
+Index posePriors(const ModelFactorInput<Model>* factors, Index num_factors) {
+  Index priors = 0;
+  for (Index f = 0; factors != nullptr && f < num_factors; ++f) {
+    visitKind<typename Model::Factors>(factors[f].kind, [&](auto* tag) {
+      using Vars = typename std::remove_pointer_t<decltype(tag)>::Variables;
+      if constexpr (Vars::kSize == 1) priors += kVariableKind<Model, TypeAtT<0, Vars>> == 0 ? 1 : 0;
+    });
+  }
+  return priors;
+}
+
+}  // namespace
+
+template <class Model>
+Smoother<Model>::Smoother(const SmootherArrays<Model>& arrays, const FactorGraphArrays& graph,
+                          const FactorArrays& factor, const ColamdArrays& ordering,
+                          const IdMapArrays* ids, const SolverOptions& options)
+    : options_(options),
+      graph_(graph),
+      cholesky_(withKinds(factor, graph_.variableKinds())),
+      ids_{IdMap(ids[0]), IdMap(ids[1])},
+      id_maps_{&ids_[0], &ids_[1]},
+      id_of_(arrays.id_of),
+      delta_(arrays.delta),
+      visited_(arrays.visited),
+      validator_(arrays.held, graph_, id_maps_),
+      ordering_(orderingArrays(arrays), ordering, graph_, cholesky_, options_),
+      relinearization_(relinearizationArrays(arrays), graph_, cholesky_, options_),
+      driver_(factorizationArrays(arrays), graph_, cholesky_, options_) {}
+
+template <class Model>
+Status Smoother<Model>::update(const Variable* variables, Index num_variables,
+                               const Measurement* factors, Index num_factors,
+                               UpdateResult* result) {
+  UpdateResult local;
+  UpdateResult& r = result != nullptr ? *result : local;
+  r = UpdateResult{};
+  // The gauge (see smoother.h): the first update anchors its first pose input unless it brings a
+  // pose prior of the caller's; the first caller pose prior after that takes the anchor out.
+  Index anchored = kNoIndex;
+  const Index priors = num_factors > 0 ? posePriors(factors, num_factors) : 0;
+  if (graph_.variables() == 0 && priors == 0 && variables != nullptr) {
+    for (Index i = 0; i < num_variables && anchored == kNoIndex; ++i) {
+      if (variables[i].kind == 0) anchored = i;
+    }
+  }
+  const bool drop_anchor = gauge_.dropsAnchor(priors);
+  Index validated_priors = 0;
+  Status s =
+      validator_.validate(variables, num_variables, factors, num_factors, anchored,
+                          kFactorValues<typename Model::PosePrior>, drop_anchor, &validated_priors);
+  if (s != Status::Ok) {
+    r.status = s;
+    return s;
+  }
+  LSLAM_DEBUG_ASSERT(validated_priors == priors);
+  graph_.beginUpdate();
+  driver_.beginStaging();
+  addInputs(variables, num_variables, factors, num_factors);
+  if (anchored != kNoIndex) {
+    // The first pose stays where it was given (chi2 is gauge-invariant, so the strength of this
+    // prior does not change the optimum).
+    using Prior = typename Model::PosePrior;
+    using Info = Eigen::Matrix<double, Prior::kErrorDim, Prior::kErrorDim>;
+    static_cast<void>(graph_.template addFactor<Prior>(
+        anchored, kNoIndex, variables[anchored].template get<Pose>(),
+        Info::Identity() * options_.anchor_information));
+  }
+  if (drop_anchor) graph_.disablePrior(gauge_.anchorFactor());
+  r.laid_out = cholesky_.layoutPending();
+  const UpdatePlan plan = planUpdate(num_variables, drop_anchor);
+  s = refactor(num_variables, plan, true, r);
+  if (s != Status::Ok) {
+    validator_.forgetIds(variables, num_variables);
+    r.status = s;
+    return s;
+  }
+  // The anchor is the last factor of its update (added after the caller's).
+  gauge_.commit(anchored != kNoIndex, drop_anchor, graph_.factors() - 1);
+  relinearization_.noteUpdate(plan.relinearize_now, delta_);
+  for (Index i = 0; i < num_variables; ++i) {
+    id_of_[graph_.variables() - num_variables + i] = variables[i].id;
+  }
+  r.variables_added = num_variables;
+  r.factors_added = graph_.factors() - driver_.firstNewFactor();
+  LSLAM_DEBUG_ASSERT(!(plan.prepare_ordering && r.reordered));
+  if (plan.prepare_ordering) r.ordering_prepared = ordering_.prepareOrdering();
+  if (options_.solve_after_update) solve(false, &r);
+  return Status::Ok;
+}
+
+// The staged graph change of validated inputs: the variables in input order (the indices the
+// validator gave their ids), then each factor on its variables' indices.
+template <class Model>
+void Smoother<Model>::addInputs(const Variable* variables, Index num_variables,
+                                const Measurement* factors, Index num_factors) {
+  for (Index i = 0; i < num_variables; ++i) {
+    const Variable& in = variables[i];
+    visitKind<typename Model::Variables>(in.kind, [&](auto* tag) {
+      using V = std::remove_pointer_t<decltype(tag)>;
+      static_cast<void>(graph_.template addVariable<V>(in.template get<V>()));
+    });
+  }
+  for (Index f = 0; f < num_factors; ++f) {
+    const Measurement& in = factors[f];
+    visitKind<typename Model::Factors>(in.kind, [&](auto* tag) {
+      using F = std::remove_pointer_t<decltype(tag)>;
+      using Vars = typename F::Variables;
+      const Index first = ids_[kVariableKind<Model, TypeAtT<0, Vars>>].find(in.ids[0]);
+      Index second = kNoIndex;
+      if constexpr (Vars::kSize == 2) {
+        second = ids_[kVariableKind<Model, TypeAtT<1, Vars>>].find(in.ids[1]);
+      }
+      static_cast<void>(graph_.template addFactor<F>(first, second, in.template measurementAs<F>(),
+                                                     in.template informationAs<F>()));
+    });
+  }
+}
+
+// As PoseGraphSolver2D::planUpdate (see there): the ordering, the relinearization and whether the
+// update refactorizes every column.
+template <class Model>
+UpdatePlan Smoother<Model>::planUpdate(Index new_variables, bool drop_anchor) {
+  UpdatePlan plan;
+  plan.drop_anchor = drop_anchor;
+  ordering_.placeAddedVariablesLast();
+  const Index* position_of = ordering_.positionOf();
+  plan.fresh_ordering =
+      ordering_.wantsFreshOrdering(graph_.factors() - driver_.firstNewFactor(),
+                                   [&] { return driver_.addedLoopClosures(position_of); });
+  const bool prepared = ordering_.prepared();
+  const bool ordering_stale = prepared || plan.fresh_ordering || ordering_.wantsReorder();
+  plan.prepare_ordering = ordering_stale && !prepared && !plan.fresh_ordering && !drop_anchor &&
+                          ordering_.preparesOrderingAhead(driver_.lastFull().products);
+  plan.reorder_now = (ordering_stale || drop_anchor) && !plan.prepare_ordering;
+  plan.relinearize_now = relinearization_.due(plan.reorder_now);
+  plan.relinearized = plan.relinearize_now ? relinearization_.stageCandidates(
+                                                 plan.reorder_now ? CandidateRange::PastThreshold
+                                                                  : CandidateRange::PastPartial,
+                                                 delta_, 0)
+                                           : 0;
+  plan.refactor_fully =
+      !plan.reorder_now &&
+      relinearization_.relinearizationDear(plan.relinearized, driver_.lastFull(), [&] {
+        return driver_.inPlaceProducts(
+            new_variables, position_of,
+            StagedVariables{relinearization_.staged(), plan.relinearized});
+      });
+  if (plan.refactor_fully && !ordering_.orderingFresh() &&
+      ordering_.preparesOrderingAhead(driver_.lastFull().products)) {
+    // A full refactorization in a stale ordering costs nearly a reordering: this update only adds
+    // its factors, and the next one reorders and relinearizes.
+    graph_.unstageRelinearization();
+    plan.relinearized = 0;
+    plan.relinearize_now = false;
+    plan.refactor_fully = false;
+    plan.prepare_ordering = true;
+  } else if (plan.refactor_fully && relinearization_.partialLeavesWaiting()) {
+    plan.relinearized =
+        relinearization_.stageCandidates(CandidateRange::LeftWaiting, delta_, plan.relinearized);
+  }
+  return plan;
+}
+
+// The relinearized and the added variables restart from delta = 0, and the factor's copy of the
+// solution follows (reloaded whole after a reordering).
+template <class Model>
+Status Smoother<Model>::refactor(Index new_variables, const UpdatePlan& plan, bool allow_reorder,
+                                 UpdateResult& r) {
+  const Index n = cholesky_.columns();
+  const StagedVariables relinearized{relinearization_.staged(), plan.relinearized};
+  bool positions_moved = false;
+  const Status s = driver_.refactor(ordering_, plan, relinearized, new_variables, allow_reorder,
+                                    &positions_moved, r);
+  if (s != Status::Ok) return s;
+  const Index* position_of = ordering_.positionOf();
+  const auto restart = [&](Index v) {
+    delta_[v].setZero();
+    if (!positions_moved) cholesky_.setSolution(position_of[v], Vector::Zero());
+  };
+  for (Index i = 0; i < relinearized.count; ++i) restart(relinearized.list[i]);
+  for (Index v = n; v < n + new_variables; ++v) restart(v);
+  if (positions_moved) cholesky_.loadSolution(delta_, ordering_.variableAt());
+  return Status::Ok;
+}
+
+template <class Model>
+void Smoother<Model>::solve(bool full, UpdateResult* result) {
+  const bool exact = full || !options_.partial_backsubstitution;
+  const Index visited = cholesky_.backSubstitute(
+      delta_, variableAt(), options_.backsubstitution_tolerance, exact, visited_);
+  relinearization_.noteCandidates(visited_, visited, variableAt());
+  if (result != nullptr) result->variables_solved = visited;
+}
+
+template <class Model>
+Status Smoother<Model>::optimize(Index max_iterations, double tolerance, UpdateResult* result) {
+  UpdateResult local;
+  UpdateResult& r = result != nullptr ? *result : local;
+  r = UpdateResult{};
+  if (max_iterations < 0 || !(tolerance >= 0.0)) {
+    r.status = Status::InvalidArgument;
+    return Status::InvalidArgument;
+  }
+  solve(true, nullptr);
+  for (Index it = 0; it < max_iterations; ++it) {
+    graph_.beginUpdate();
+    driver_.beginStaging();
+    const Index relinearized = relinearization_.stageEveryMovedVariable(delta_, tolerance);
+    if (relinearized == 0) {
+      graph_.commit();  // nothing staged: commit is a no-op
+      break;
+    }
+    UpdateResult step;
+    UpdatePlan plan;
+    plan.relinearized = relinearized;
+    const Status s = refactor(0, plan, false, step);
+    if (s != Status::Ok) {
+      r.status = s;
+      return s;
+    }
+    relinearization_.clearCandidates();
+    solve(true, nullptr);
+    r.iterations = it + 1;
+    r.variables_relinearized += step.variables_relinearized;
+    r.columns_refactored += step.columns_refactored;
+    r.block_products += step.block_products;
+  }
+  r.factor_blocks = cholesky_.liveBlocks();
+  return Status::Ok;
+}
+
+// The caller's factors only: the anchor is skipped (a dropped one has zero information).
+template <class Model>
+double Smoother<Model>::chi2() const {
+  double total = 0.0;
+  for (Index f = 0; f < graph_.factors(); ++f) {
+    if (f == gauge_.anchorFactor()) continue;
+    visitKind<typename Model::Factors>(graph_.factorKind(f), [&](auto* tag) {
+      using F = std::remove_pointer_t<decltype(tag)>;
+      using Vars = typename F::Variables;
+      const auto z = graph_.template measurement<F>(f);
+      const auto a = estimateAt<TypeAtT<0, Vars>>(graph_.firstVariable(f));
+      Eigen::Matrix<double, F::kErrorDim, 1> e;
+      if constexpr (Vars::kSize == 1) {
+        e = F::error(a, z, nullptr);
+      } else {
+        const auto b = estimateAt<TypeAtT<1, Vars>>(graph_.secondVariable(f));
+        e = F::error(a, b, z, nullptr, nullptr);
+      }
+      total += e.dot(graph_.template information<F>(f) * e);
+    });
+  }
+  return total;
+}
+
+template class Smoother<Slam2D>;
+template class Smoother<Slam3D>;
+
+}  // namespace lslam

@@ -1,0 +1,565 @@
+// Smoother<Model> against the independent host batch solver (solveModelBatch) on random Slam2D and
+// Slam3D streams fed online, and the rejection contract: a rejected update changes no bit, and the
+// next valid update gives what it gives without the rejected one.
+#include <doctest/doctest.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <memory>
+#include <random>
+#include <vector>
+
+#include "host_sim/model_batch_solver.h"
+#include "host_sim/model_chi2.h"
+#include "host_sim/model_dataset.h"
+#include "lslam/models/slam_2d.h"
+#include "lslam/models/slam_3d.h"
+#include "lslam/solver/smoother.h"
+
+namespace {
+
+using lslam::Index;
+using lslam::Mat2;
+using lslam::Mat3;
+using lslam::Mat6;
+using lslam::Point2;
+using lslam::Point3;
+using lslam::SE2;
+using lslam::SE3;
+using lslam::Slam2D;
+using lslam::Slam3D;
+using lslam::Status;
+using lslam::Vec2;
+using lslam::Vec3;
+namespace sim = lslam::sim;
+
+template <class Model>
+struct Step {
+  std::vector<lslam::ModelVariableInput<Model>> variables;
+  std::vector<lslam::ModelFactorInput<Model>> factors;
+};
+
+// A stream of updates and the same problem as a host dataset (G2o convention), with the initial
+// values the stream gives its variables.
+template <class Model>
+struct Stream {
+  std::vector<Step<Model>> steps;
+  sim::ModelDataset dataset;
+  sim::ModelEstimate initial;
+};
+
+sim::VariableKey poseKey(std::int64_t id) {
+  return {sim::VariableRole::Pose, id};
+}
+sim::VariableKey landmarkKey(std::int64_t id) {
+  return {sim::VariableRole::Landmark, id};
+}
+
+template <class Model>
+void addFactor(Stream<Model>& s, sim::FactorKind kind, sim::VariableKey a, sim::VariableKey b,
+               const Eigen::VectorXd& z, const Eigen::MatrixXd& info) {
+  sim::ModelFactor f;
+  f.kind = kind;
+  f.first = a;
+  f.second = b;
+  f.measurement = z;
+  f.information = info;
+  s.dataset.factors.push_back(f);
+}
+
+// ---- 2D: odometry, loop closures, landmarks seen by position and by range-bearing
+// ----------------
+
+Eigen::Vector3d vec(const SE2& x) {
+  return Eigen::Vector3d(x.x(), x.y(), x.theta());
+}
+
+Stream<Slam2D> stream2D(unsigned seed, int poses, int landmarks) {
+  using Var = lslam::ModelVariableInput<Slam2D>;
+  using Fac = lslam::ModelFactorInput<Slam2D>;
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  Stream<Slam2D> s;
+  s.dataset.name = "random 2D";
+  s.dataset.dimension = 2;
+  std::vector<SE2> truth;
+  std::vector<SE2> initial;
+  std::vector<Vec2> marks;
+  for (int l = 0; l < landmarks; ++l)
+    marks.push_back(Vec2(uniform(rng) * 24 - 4, uniform(rng) * 24 - 4));
+  std::vector<bool> seen(landmarks, false);
+  const Mat3 odo_info = Eigen::Vector3d(100.0, 100.0, 400.0).asDiagonal();
+  const Mat2 xy_info = Mat2::Identity() * 50.0;
+  const Mat2 rb_info = Eigen::Vector2d(50.0, 200.0).asDiagonal();
+  const auto noisy = [&](const SE2& z) {
+    return SE2(z.x() + 0.1 * noise(rng), z.y() + 0.1 * noise(rng), z.theta() + 0.05 * noise(rng));
+  };
+  for (int k = 0; k < poses; ++k) {
+    Step<Slam2D> step;
+    if (k == 0) {
+      truth.push_back(SE2(0.0, 0.0, 0.0));
+      initial.push_back(truth[0]);
+    } else {
+      // A square-ish loop: forward with turns, so that loop closures and revisited landmarks come.
+      const double turn = (k % 10 == 0) ? 1.5707963 : 0.05 * noise(rng);
+      const SE2 move(1.0, 0.0, turn);
+      truth.push_back(truth[k - 1].compose(move));
+      const SE2 z = noisy(move);
+      initial.push_back(initial[k - 1].compose(z));
+      step.factors.push_back(Fac::make<lslam::BetweenSE2Factor>(k - 1, k, z, odo_info));
+      addFactor(s, sim::FactorKind::BetweenSE2, poseKey(k - 1), poseKey(k), vec(z), odo_info);
+      // A loop closure to an earlier pose nearby in space.
+      for (int j = 0; j + 8 < k; ++j) {
+        const SE2 rel = truth[j].between(truth[k]);
+        if (std::hypot(rel.x(), rel.y()) < 2.0 && uniform(rng) < 0.3) {
+          const SE2 zl = noisy(rel);
+          step.factors.push_back(Fac::make<lslam::BetweenSE2Factor>(j, k, zl, odo_info));
+          addFactor(s, sim::FactorKind::BetweenSE2, poseKey(j), poseKey(k), vec(zl), odo_info);
+          break;
+        }
+      }
+    }
+    step.variables.push_back(Var::make(k, initial[k]));
+    s.initial[poseKey(k)] = vec(initial[k]);
+    // Landmarks within 4 m: odd ids by range-bearing, even ids by position.
+    for (int l = 0; l < landmarks; ++l) {
+      const Vec2 d = marks[l] - truth[k].translation();
+      if (d.norm() > 4.0) continue;
+      const double c = std::cos(truth[k].theta());
+      const double sn = std::sin(truth[k].theta());
+      const Vec2 local(c * d.x() + sn * d.y(), -sn * d.x() + c * d.y());
+      Vec2 z;
+      Vec2 local_measured;
+      if (l % 2 == 1) {
+        z = Vec2(local.norm() + 0.05 * noise(rng),
+                 std::atan2(local.y(), local.x()) + 0.02 * noise(rng));
+        local_measured = Vec2(z(0) * std::cos(z(1)), z(0) * std::sin(z(1)));
+        step.factors.push_back(Fac::make<lslam::RangeBearingSE2Factor>(k, l, z, rb_info));
+        addFactor(s, sim::FactorKind::RangeBearing2, poseKey(k), landmarkKey(l), z, rb_info);
+      } else {
+        z = local + 0.05 * Vec2(noise(rng), noise(rng));
+        local_measured = z;
+        step.factors.push_back(Fac::make<lslam::PointObservationSE2Factor>(k, l, z, xy_info));
+        addFactor(s, sim::FactorKind::PointXY2, poseKey(k), landmarkKey(l), z, xy_info);
+      }
+      if (!seen[l]) {
+        // Initialised from this observation at the dead-reckoned pose.
+        seen[l] = true;
+        const SE2& p = initial[k];
+        const double ci = std::cos(p.theta());
+        const double si = std::sin(p.theta());
+        const Vec2 w(p.x() + ci * local_measured.x() - si * local_measured.y(),
+                     p.y() + si * local_measured.x() + ci * local_measured.y());
+        step.variables.push_back(Var::make(l, Point2(w)));
+        s.initial[landmarkKey(l)] = w;
+      }
+    }
+    s.steps.push_back(step);
+  }
+  return s;
+}
+
+// ---- 3D: SE3 odometry and loop closures, point observations
+// --------------------------------------
+
+Eigen::Quaterniond smallRotation(std::mt19937& rng, double sigma) {
+  std::normal_distribution<double> noise(0.0, sigma);
+  const Eigen::Vector3d w(noise(rng), noise(rng), noise(rng));
+  if (w.norm() == 0.0) return Eigen::Quaterniond::Identity();
+  return Eigen::Quaterniond(Eigen::AngleAxisd(w.norm(), w.normalized()));
+}
+
+SE3 toSE3(const Eigen::Isometry3d& x) {
+  return SE3(lslam::SO3(Eigen::Quaterniond(x.linear()).normalized()), x.translation());
+}
+Eigen::Isometry3d toIso(const SE3& x) {
+  Eigen::Isometry3d r = Eigen::Isometry3d::Identity();
+  r.linear() = x.rotation().quaternion().toRotationMatrix();
+  r.translation() = x.translation();
+  return r;
+}
+Eigen::VectorXd vec(const SE3& x) {
+  const Eigen::Quaterniond& q = x.rotation().quaternion();
+  Eigen::VectorXd v(7);
+  v << x.translation(), q.x(), q.y(), q.z(), q.w();
+  return v;
+}
+
+Stream<Slam3D> stream3D(unsigned seed, int poses, int landmarks) {
+  using Var = lslam::ModelVariableInput<Slam3D>;
+  using Fac = lslam::ModelFactorInput<Slam3D>;
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  Stream<Slam3D> s;
+  s.dataset.name = "random 3D";
+  s.dataset.dimension = 3;
+  std::vector<Eigen::Isometry3d> truth;
+  std::vector<SE3> initial;
+  std::vector<Vec3> marks;
+  for (int l = 0; l < landmarks; ++l)
+    marks.push_back(Vec3(uniform(rng) * 20 - 4, uniform(rng) * 20 - 4, uniform(rng) * 4 - 2));
+  std::vector<bool> seen(landmarks, false);
+  Mat6 odo_info = Mat6::Identity() * 100.0;
+  odo_info.bottomRightCorner<3, 3>() *= 4.0;
+  const Mat3 obs_info = Mat3::Identity() * 50.0;
+  const auto noisy = [&](const Eigen::Isometry3d& z) {
+    Eigen::Isometry3d n = Eigen::Isometry3d::Identity();
+    n.linear() = smallRotation(rng, 0.02).toRotationMatrix();
+    n.translation() = 0.05 * Vec3(noise(rng), noise(rng), noise(rng));
+    return toSE3(z * n);
+  };
+  for (int k = 0; k < poses; ++k) {
+    Step<Slam3D> step;
+    if (k == 0) {
+      truth.push_back(Eigen::Isometry3d::Identity());
+      initial.push_back(SE3());
+    } else {
+      Eigen::Isometry3d move = Eigen::Isometry3d::Identity();
+      const double yaw = (k % 10 == 0) ? 1.5707963 : 0.05 * noise(rng);
+      move.linear() =
+          (Eigen::AngleAxisd(yaw, Vec3::UnitZ()) * smallRotation(rng, 0.02)).toRotationMatrix();
+      move.translation() = Vec3(1.0, 0.0, 0.05 * noise(rng));
+      truth.push_back(truth[k - 1] * move);
+      const SE3 z = noisy(move);
+      initial.push_back(toSE3(toIso(initial[k - 1]) * toIso(z)));
+      step.factors.push_back(Fac::make<lslam::BetweenSE3Factor>(k - 1, k, z, odo_info));
+      addFactor(s, sim::FactorKind::BetweenSE3, poseKey(k - 1), poseKey(k), vec(z), odo_info);
+      for (int j = 0; j + 8 < k; ++j) {
+        const Eigen::Isometry3d rel = truth[j].inverse() * truth[k];
+        if (rel.translation().norm() < 2.0 && uniform(rng) < 0.3) {
+          const SE3 zl = noisy(rel);
+          step.factors.push_back(Fac::make<lslam::BetweenSE3Factor>(j, k, zl, odo_info));
+          addFactor(s, sim::FactorKind::BetweenSE3, poseKey(j), poseKey(k), vec(zl), odo_info);
+          break;
+        }
+      }
+    }
+    step.variables.push_back(Var::make(k, initial[k]));
+    s.initial[poseKey(k)] = vec(initial[k]);
+    for (int l = 0; l < landmarks; ++l) {
+      const Vec3 local = truth[k].inverse() * marks[l];
+      if (local.norm() > 4.0) continue;
+      const Vec3 z = local + 0.05 * Vec3(noise(rng), noise(rng), noise(rng));
+      step.factors.push_back(Fac::make<lslam::PointObservationSE3Factor>(k, l, z, obs_info));
+      addFactor(s, sim::FactorKind::PointXYZ3, poseKey(k), landmarkKey(l), z, obs_info);
+      if (!seen[l]) {
+        seen[l] = true;
+        const Vec3 w = toIso(initial[k]) * z;
+        step.variables.push_back(Var::make(l, Point3(w)));
+        s.initial[landmarkKey(l)] = w;
+      }
+    }
+    s.steps.push_back(step);
+  }
+  return s;
+}
+
+// ---- Reading a smoother
+// --------------------------------------------------------------------------
+
+// Every estimate (StoredValue doubles, by variable) and chi2, for bitwise comparisons.
+template <class Model>
+std::vector<double> snapshot(const lslam::Smoother<Model>& s) {
+  using Pose = lslam::TypeAtT<0, typename Model::Variables>;
+  using Landmark = lslam::TypeAtT<1, typename Model::Variables>;
+  std::vector<double> out;
+  out.push_back(static_cast<double>(s.variables()));
+  out.push_back(static_cast<double>(s.factors()));
+  for (Index v = 0; v < s.variables(); ++v) {
+    double values[7] = {};
+    if (s.kindAt(v) == 0) {
+      lslam::StoredValue<Pose>::store(s.template estimateAt<Pose>(v), values);
+    } else {
+      lslam::StoredValue<Landmark>::store(s.template estimateAt<Landmark>(v), values);
+    }
+    out.push_back(static_cast<double>(s.idAt(v)));
+    out.insert(out.end(), values, values + 7);
+  }
+  out.push_back(s.chi2());
+  return out;
+}
+
+bool sameBits(const std::vector<double>& a, const std::vector<double>& b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
+}
+
+template <class Model>
+Status feed(lslam::Smoother<Model>& s, const Step<Model>& step) {
+  return s.update(step.variables.data(), static_cast<Index>(step.variables.size()),
+                  step.factors.data(), static_cast<Index>(step.factors.size()));
+}
+
+bool allFinite(const std::vector<double>& v) {
+  for (double x : v)
+    if (!std::isfinite(x)) return false;
+  return true;
+}
+
+// The batch optimum with pose 0 fixed at its initial value (the smoother's anchor holds it there).
+sim::ModelBatchResult batch(const sim::ModelDataset& d, const sim::ModelEstimate& initial) {
+  sim::BatchOptions options;
+  options.fixed = {0};
+  return sim::solveModelBatch(d, initial, options);
+}
+
+using Smoother2D = lslam::StaticSmoother<Slam2D, 160, 40, 1600, 1600 * 12, 24000, 24000 * 9>;
+using Smoother3D = lslam::StaticSmoother<Slam3D, 130, 40, 1600, 1600 * 43, 20000, 20000 * 36>;
+
+// Online, then optimize(): chi2 within 1e-6 relative of the batch optimum; every estimate within
+// 1e-6 (pose translation and landmark coordinates, m; angle or quaternion coefficients) of the
+// batch's.
+template <class Model, class S>
+void checkAgainstBatch(const Stream<Model>& stream, S& smoother, int kPoseParams) {
+  using Pose = lslam::TypeAtT<0, typename Model::Variables>;
+  using Landmark = lslam::TypeAtT<1, typename Model::Variables>;
+  int reordered = 0;
+  for (std::size_t k = 0; k < stream.steps.size(); ++k) {
+    CAPTURE(k);
+    lslam::UpdateResult r;
+    const Step<Model>& st = stream.steps[k];
+    REQUIRE(smoother.update(st.variables.data(), static_cast<Index>(st.variables.size()),
+                            st.factors.data(), static_cast<Index>(st.factors.size()),
+                            &r) == Status::Ok);
+    reordered += r.reordered ? 1 : 0;
+    REQUIRE(allFinite(snapshot(smoother)));
+  }
+  MESSAGE(reordered << " reorderings online");
+  // The stream holds loop closures (between factors to a pose before the previous one).
+  int loop_closures = 0;
+  for (const sim::ModelFactor& f : stream.dataset.factors) {
+    const bool between =
+        f.kind == sim::FactorKind::BetweenSE2 || f.kind == sim::FactorKind::BetweenSE3;
+    loop_closures += between && f.second.id - f.first.id > 1 ? 1 : 0;
+  }
+  CHECK(loop_closures > 3);
+  const sim::ModelBatchResult reference = batch(stream.dataset, stream.initial);
+  REQUIRE(reference.converged);
+  REQUIRE(smoother.optimize(50, 1e-10) == Status::Ok);
+  const double chi2 = smoother.chi2();
+  MESSAGE("poses " << smoother.poses() << ", landmarks " << smoother.landmarks() << ", factors "
+                   << stream.dataset.factors.size() << ": chi2 " << chi2 << ", batch "
+                   << reference.chi2);
+  CHECK(std::abs(chi2 - reference.chi2) <= 1e-6 * reference.chi2);
+  double worst = 0.0;
+  for (Index v = 0; v < smoother.variables(); ++v) {
+    const bool pose = smoother.kindAt(v) == 0;
+    const sim::VariableKey key = pose ? poseKey(smoother.idAt(v)) : landmarkKey(smoother.idAt(v));
+    const Eigen::VectorXd& ref = reference.values.at(key);
+    Eigen::VectorXd mine;
+    if (pose) {
+      mine = vec(smoother.template estimateAt<Pose>(v));
+      if (kPoseParams == 7 && mine(6) * ref(6) < 0.0) mine.tail<4>() *= -1.0;  // q and -q
+    } else {
+      mine = smoother.template estimateAt<Landmark>(v).vector();
+    }
+    REQUIRE(mine.size() == ref.size());
+    worst = std::max(worst, (mine - ref).cwiseAbs().maxCoeff());
+  }
+  MESSAGE("largest difference from the batch estimate " << worst);
+  CHECK(worst < 1e-6);
+  // estimate<V> by id agrees with estimateAt.
+  Pose p;
+  REQUIRE(smoother.estimate(lslam::VariableId{3}, &p) == Status::Ok);
+  const Eigen::VectorXd by_id = vec(p);
+  Index index3 = 0;
+  while (smoother.kindAt(index3) != 0 || smoother.idAt(index3) != 3) ++index3;
+  const Eigen::VectorXd by_index = vec(smoother.template estimateAt<Pose>(index3));
+  CHECK((by_id.array() == by_index.array()).all());
+  CHECK(smoother.estimate(lslam::VariableId{100000}, &p) == Status::UnknownVariable);
+  Landmark l;
+  CHECK(smoother.estimate(lslam::VariableId{100000}, &l) == Status::UnknownVariable);
+}
+
+TEST_CASE("Slam2D streams: online estimates finite, optimize() reaches the batch optimum") {
+  const unsigned seeds[] = {1, 7, 42};
+  const int poses[] = {60, 100, 150};
+  for (int i = 0; i < 3; ++i) {
+    CAPTURE(seeds[i]);
+    const Stream<Slam2D> stream = stream2D(seeds[i], poses[i], 40);
+    auto smoother = std::make_unique<Smoother2D>();
+    checkAgainstBatch(stream, *smoother, 3);
+    CHECK(smoother->landmarks() > 10);
+    CHECK(smoother->anchorFactor() != lslam::kNoIndex);
+  }
+}
+
+TEST_CASE("Slam3D streams: online estimates finite, optimize() reaches the batch optimum") {
+  const unsigned seeds[] = {3, 11};
+  const int poses[] = {70, 120};
+  for (int i = 0; i < 2; ++i) {
+    CAPTURE(seeds[i]);
+    const Stream<Slam3D> stream = stream3D(seeds[i], poses[i], 40);
+    auto smoother = std::make_unique<Smoother3D>();
+    checkAgainstBatch(stream, *smoother, 7);
+    CHECK(smoother->landmarks() > 10);
+  }
+}
+
+// ---- Rejections ---------------------------------------------------------------------------------
+
+// Each rejected call changes no bit, and the valid step after it gives the bits a twin fed only
+// the valid steps has.
+template <class Model, class S, class MakeRejected>
+void checkRejections(const Stream<Model>& stream, S& solver, S& twin, int kinds,
+                     MakeRejected make_rejected) {
+  int tested = 0;
+  for (std::size_t k = 0; k < stream.steps.size(); ++k) {
+    CAPTURE(k);
+    if (k >= 5) {
+      const int kind = static_cast<int>(k % static_cast<std::size_t>(kinds));
+      CAPTURE(kind);
+      Status expected = Status::Ok;
+      const Step<Model> bad = make_rejected(kind, k, &expected);
+      const std::vector<double> before = snapshot(solver);
+      lslam::UpdateResult r;
+      const Status got =
+          solver.update(bad.variables.data(), static_cast<Index>(bad.variables.size()),
+                        bad.factors.data(), static_cast<Index>(bad.factors.size()), &r);
+      CHECK(got == expected);
+      CHECK(r.status == got);
+      CHECK(sameBits(before, snapshot(solver)));
+      ++tested;
+    }
+    REQUIRE(feed(solver, stream.steps[k]) == Status::Ok);
+    REQUIRE(feed(twin, stream.steps[k]) == Status::Ok);
+    CHECK(sameBits(snapshot(solver), snapshot(twin)));
+  }
+  CHECK(tested > 3 * kinds);
+}
+
+TEST_CASE("Slam2D: a rejected update of each kind changes nothing") {
+  using Var = lslam::ModelVariableInput<Slam2D>;
+  using Fac = lslam::ModelFactorInput<Slam2D>;
+  const Stream<Slam2D> stream = stream2D(5, 70, 40);
+  auto solver = std::make_unique<Smoother2D>();
+  auto twin = std::make_unique<Smoother2D>();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const auto make = [&](int kind, std::size_t k, Status* expected) {
+    Step<Slam2D> bad = stream.steps[k];  // the next step, spoiled
+    const auto n = static_cast<lslam::VariableId>(k);
+    switch (kind) {
+      case 0:  // a NaN initial value
+        bad.variables[0] = Var::make(n, SE2(nan, 0.0, 0.0));
+        *expected = Status::NonFiniteInput;
+        break;
+      case 1:  // an unknown pose id
+        bad.factors.push_back(
+            Fac::make<lslam::BetweenSE2Factor>(n + 500, n, SE2(), Mat3::Identity()));
+        *expected = Status::UnknownVariable;
+        break;
+      case 2:  // a landmark no factor observes
+        bad.variables.push_back(Var::make(1000, Point2(Vec2(1.0, 2.0))));
+        *expected = Status::UnconstrainedVariable;
+        break;
+      case 3:  // a pose seen only through landmarks
+        bad.variables.push_back(Var::make(n + 1000, SE2()));
+        bad.variables.push_back(Var::make(1001, Point2(Vec2(1.0, 2.0))));
+        bad.factors.push_back(
+            Fac::make<lslam::PointObservationSE2Factor>(n, 1001, Vec2(1.0, 0.0), Mat2::Identity()));
+        bad.factors.push_back(Fac::make<lslam::PointObservationSE2Factor>(
+            n + 1000, 1001, Vec2(1.0, 0.0), Mat2::Identity()));
+        *expected = Status::UnconstrainedVariable;
+        break;
+      case 4:  // more landmarks than the capacity, each observed
+        for (int l = 0; l <= Smoother2D::max_landmarks; ++l) {
+          bad.variables.push_back(Var::make(2000 + l, Point2(Vec2(1.0, 0.0))));
+          bad.factors.push_back(Fac::make<lslam::PointObservationSE2Factor>(
+              n, 2000 + l, Vec2(1.0, 0.0), Mat2::Identity()));
+        }
+        *expected = Status::CapacityExhausted;
+        break;
+      default:  // information not positive definite
+        bad.factors[0] = Fac::make<lslam::BetweenSE2Factor>(n - 1, n, SE2(), -Mat3::Identity());
+        *expected = Status::InformationNotPositiveDefinite;
+        break;
+    }
+    return bad;
+  };
+  checkRejections(stream, *solver, *twin, 6, make);
+}
+
+TEST_CASE("Slam3D: a rejected update of each kind changes nothing") {
+  using Var = lslam::ModelVariableInput<Slam3D>;
+  using Fac = lslam::ModelFactorInput<Slam3D>;
+  const Stream<Slam3D> stream = stream3D(9, 60, 40);
+  auto solver = std::make_unique<Smoother3D>();
+  auto twin = std::make_unique<Smoother3D>();
+  const SE3 long_q(lslam::SO3(Eigen::Quaterniond(1.0, 0.1, 0.0, 0.0)), Vec3::Zero());
+  const auto make = [&](int kind, std::size_t k, Status* expected) {
+    Step<Slam3D> bad = stream.steps[k];
+    const auto n = static_cast<lslam::VariableId>(k);
+    switch (kind) {
+      case 0:  // a non-unit quaternion in an initial value
+        bad.variables[0] = Var::make(n, long_q);
+        *expected = Status::InvalidArgument;
+        break;
+      case 1:  // ...and in a measurement
+        bad.factors[0] = Fac::make<lslam::BetweenSE3Factor>(n - 1, n, long_q, Mat6::Identity());
+        *expected = Status::InvalidArgument;
+        break;
+      case 2:  // a NaN measurement
+        bad.factors[0] = Fac::make<lslam::BetweenSE3Factor>(
+            n - 1, n, SE3(lslam::SO3(), Vec3(std::nan(""), 0.0, 0.0)), Mat6::Identity());
+        *expected = Status::NonFiniteInput;
+        break;
+      case 3:  // an unknown landmark id
+        bad.factors.push_back(
+            Fac::make<lslam::PointObservationSE3Factor>(n, 777, Vec3(1, 0, 0), Mat3::Identity()));
+        *expected = Status::UnknownVariable;
+        break;
+      case 4:  // a pose seen only through a landmark (which the step's pose holds)
+        bad.variables.push_back(Var::make(n + 1000, SE3()));
+        bad.variables.push_back(Var::make(3001, Point3(Vec3(1, 0, 0))));
+        bad.factors.push_back(
+            Fac::make<lslam::PointObservationSE3Factor>(n, 3001, Vec3(1, 0, 0), Mat3::Identity()));
+        bad.factors.push_back(Fac::make<lslam::PointObservationSE3Factor>(
+            n + 1000, 3001, Vec3(1, 0, 0), Mat3::Identity()));
+        *expected = Status::UnconstrainedVariable;
+        break;
+      default:  // more poses than the capacity
+        for (int p = 0; p < Smoother3D::max_poses; ++p) {
+          bad.variables.push_back(Var::make(5000 + p, SE3()));
+          bad.factors.push_back(
+              Fac::make<lslam::BetweenSE3Factor>(n - 1, 5000 + p, SE3(), Mat6::Identity()));
+        }
+        *expected = Status::CapacityExhausted;
+        break;
+    }
+    return bad;
+  };
+  checkRejections(stream, *solver, *twin, 6, make);
+}
+
+TEST_CASE("the caller's first pose prior takes the anchor out") {
+  using Var = lslam::ModelVariableInput<Slam2D>;
+  using Fac = lslam::ModelFactorInput<Slam2D>;
+  auto s = std::make_unique<Smoother2D>();
+  // A landmark input first: the anchor holds the first pose input, not input 0.
+  const std::vector<Var> first = {Var::make(0, Point2(Vec2(1.0, 0.0))), Var::make(0, SE2())};
+  const std::vector<Fac> obs = {
+      Fac::make<lslam::PointObservationSE2Factor>(0, 0, Vec2(1.0, 0.0), Mat2::Identity())};
+  REQUIRE(s->update(first.data(), 2, obs.data(), 1) == Status::Ok);
+  CHECK(s->anchorFactor() == 1);
+  CHECK(s->chi2() == 0.0);
+  const std::vector<Var> second = {Var::make(1, SE2(1.0, 0.0, 0.0))};
+  const std::vector<Fac> prior = {
+      Fac::make<lslam::BetweenSE2Factor>(0, 1, SE2(1.0, 0.0, 0.0), Mat3::Identity()),
+      Fac::make<lslam::PriorSE2Factor>(1, SE2(3.0, 0.0, 0.0), Mat3::Identity())};
+  lslam::UpdateResult r;
+  REQUIRE(s->update(second.data(), 1, prior.data(), 2, &r) == Status::Ok);
+  CHECK(r.refactored_fully);
+  CHECK(s->anchorFactor() == lslam::kNoIndex);
+  REQUIRE(s->optimize(20, 1e-12) == Status::Ok);
+  // Without the anchor the prior is met exactly: every factor at zero error.
+  SE2 x1;
+  REQUIRE(s->estimate(lslam::VariableId{1}, &x1) == Status::Ok);
+  CHECK(x1.x() == doctest::Approx(3.0).epsilon(1e-9));
+  CHECK(s->chi2() < 1e-16);
+}
+
+}  // namespace
