@@ -1,6 +1,7 @@
 #include "lslam/solver/pose_graph_solver_2d.h"
 
 #include "lslam/factors/se2_factors.h"
+#include "update_steps.h"
 
 namespace lslam {
 namespace {
@@ -102,76 +103,17 @@ Status PoseGraphSolver2D::update(const PoseInput* poses, Index num_poses,
   return Status::Ok;
 }
 
-// What an update does besides adding its poses and factors (their graph change is staged): a
-// prepared ordering is applied now; a stale one is replaced now, or prepared at the end of this
-// update and applied by the next (prepare_ordering_ahead). The candidates are relinearized when
-// one is urgent, at a reordering, or every relinearize_skip updates; in place, or by a full
-// refactorization when that is cheaper (relinearizationDear). An update that drops the anchor
-// reorders now, a full refactorization: a factor cannot be taken out of L in place.
+// See detail::planUpdate (update_steps.h), shared with the other façade.
 UpdatePlan PoseGraphSolver2D::planUpdate(Index new_poses, bool drop_anchor) {
-  UpdatePlan plan;
-  plan.drop_anchor = drop_anchor;
-  ordering_.placeAddedVariablesLast();
-  const Index* position_of = ordering_.positionOf();
-  plan.fresh_ordering =
-      ordering_.wantsFreshOrdering(graph_.factors() - driver_.firstNewFactor(),
-                                   [&] { return driver_.addedLoopClosures(position_of); });
-  const bool prepared = ordering_.prepared();
-  const bool ordering_stale = prepared || plan.fresh_ordering || ordering_.wantsReorder();
-  plan.prepare_ordering = ordering_stale && !prepared && !plan.fresh_ordering && !drop_anchor &&
-                          ordering_.preparesOrderingAhead(driver_.lastFull().products);
-  plan.reorder_now = (ordering_stale || drop_anchor) && !plan.prepare_ordering;
-  plan.relinearize_now = relinearization_.due(plan.reorder_now);
-  // Outside a reordering only the candidates past the partial bar (see relinearize_partial_...).
-  plan.relinearized = plan.relinearize_now ? relinearization_.stageCandidates(
-                                                 plan.reorder_now ? CandidateRange::PastThreshold
-                                                                  : CandidateRange::PastPartial,
-                                                 delta_, 0)
-                                           : 0;
-  plan.refactor_fully =
-      !plan.reorder_now &&
-      relinearization_.relinearizationDear(plan.relinearized, driver_.lastFull(), [&] {
-        return driver_.inPlaceProducts(
-            new_poses, position_of, StagedVariables{relinearization_.staged(), plan.relinearized});
-      });
-  if (plan.refactor_fully && !ordering_.orderingFresh() &&
-      ordering_.preparesOrderingAhead(driver_.lastFull().products)) {
-    // A full refactorization in a stale ordering is nearly the price of a reordering: this update
-    // only adds its factors, and the next one reorders and relinearizes (the candidates wait).
-    graph_.unstageRelinearization();
-    plan.relinearized = 0;
-    plan.relinearize_now = false;
-    plan.refactor_fully = false;
-    plan.prepare_ordering = true;  // (a prepared ordering would have been applied: not stale)
-  } else if (plan.refactor_fully && relinearization_.partialLeavesWaiting()) {
-    // Every column is refactorized anyway: the waiting candidates come along for their
-    // linearization alone.
-    plan.relinearized =
-        relinearization_.stageCandidates(CandidateRange::LeftWaiting, delta_, plan.relinearized);
-  }
-  return plan;
+  return detail::planUpdate(graph_, ordering_, relinearization_, driver_, delta_, new_poses,
+                            drop_anchor);
 }
 
-// The driver commits the factor and the graph; the relinearized and the added variables then
-// restart from delta = 0. The factor's copy of the solution (by position) follows them, or is
-// reloaded whole after a reordering moved the variables.
+// See detail::refactorAndRestart (update_steps.h), shared with the other façade.
 Status PoseGraphSolver2D::refactor(Index new_poses, const UpdatePlan& plan, bool allow_reorder,
                                    UpdateResult& r) {
-  const Index n = cholesky_.columns();
-  const StagedVariables relinearized{relinearization_.staged(), plan.relinearized};
-  bool positions_moved = false;
-  const Status s = driver_.refactor(ordering_, plan, relinearized, new_poses, allow_reorder,
-                                    &positions_moved, r);
-  if (s != Status::Ok) return s;
-  const Index* position_of = ordering_.positionOf();
-  const auto restart = [&](Index v) {
-    delta_[v].setZero();
-    if (!positions_moved) cholesky_.setSolution(position_of[v], Vec3::Zero());
-  };
-  for (Index i = 0; i < relinearized.count; ++i) restart(relinearized.list[i]);
-  for (Index v = n; v < n + new_poses; ++v) restart(v);
-  if (positions_moved) cholesky_.loadSolution(delta_, ordering_.variableAt());
-  return Status::Ok;
+  return detail::refactorAndRestart(cholesky_, ordering_, relinearization_, driver_, delta_,
+                                    new_poses, plan, allow_reorder, r);
 }
 
 void PoseGraphSolver2D::solve(bool full, UpdateResult* result) {

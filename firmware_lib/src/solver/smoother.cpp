@@ -4,6 +4,7 @@
 
 #include "lslam/models/slam_2d.h"
 #include "lslam/models/slam_3d.h"
+#include "update_steps.h"
 
 namespace lslam {
 namespace {
@@ -165,71 +166,19 @@ void Smoother<Model>::addInputs(const Variable* variables, Index num_variables,
   }
 }
 
-// As PoseGraphSolver2D::planUpdate (see there): the ordering, the relinearization and whether the
-// update refactorizes every column.
+// See detail::planUpdate (update_steps.h), shared with the other façade.
 template <class Model>
 UpdatePlan Smoother<Model>::planUpdate(Index new_variables, bool drop_anchor) {
-  UpdatePlan plan;
-  plan.drop_anchor = drop_anchor;
-  ordering_.placeAddedVariablesLast();
-  const Index* position_of = ordering_.positionOf();
-  plan.fresh_ordering =
-      ordering_.wantsFreshOrdering(graph_.factors() - driver_.firstNewFactor(),
-                                   [&] { return driver_.addedLoopClosures(position_of); });
-  const bool prepared = ordering_.prepared();
-  const bool ordering_stale = prepared || plan.fresh_ordering || ordering_.wantsReorder();
-  plan.prepare_ordering = ordering_stale && !prepared && !plan.fresh_ordering && !drop_anchor &&
-                          ordering_.preparesOrderingAhead(driver_.lastFull().products);
-  plan.reorder_now = (ordering_stale || drop_anchor) && !plan.prepare_ordering;
-  plan.relinearize_now = relinearization_.due(plan.reorder_now);
-  plan.relinearized = plan.relinearize_now ? relinearization_.stageCandidates(
-                                                 plan.reorder_now ? CandidateRange::PastThreshold
-                                                                  : CandidateRange::PastPartial,
-                                                 delta_, 0)
-                                           : 0;
-  plan.refactor_fully =
-      !plan.reorder_now &&
-      relinearization_.relinearizationDear(plan.relinearized, driver_.lastFull(), [&] {
-        return driver_.inPlaceProducts(
-            new_variables, position_of,
-            StagedVariables{relinearization_.staged(), plan.relinearized});
-      });
-  if (plan.refactor_fully && !ordering_.orderingFresh() &&
-      ordering_.preparesOrderingAhead(driver_.lastFull().products)) {
-    // A full refactorization in a stale ordering costs nearly a reordering: this update only adds
-    // its factors, and the next one reorders and relinearizes.
-    graph_.unstageRelinearization();
-    plan.relinearized = 0;
-    plan.relinearize_now = false;
-    plan.refactor_fully = false;
-    plan.prepare_ordering = true;
-  } else if (plan.refactor_fully && relinearization_.partialLeavesWaiting()) {
-    plan.relinearized =
-        relinearization_.stageCandidates(CandidateRange::LeftWaiting, delta_, plan.relinearized);
-  }
-  return plan;
+  return detail::planUpdate(graph_, ordering_, relinearization_, driver_, delta_, new_variables,
+                            drop_anchor);
 }
 
-// The relinearized and the added variables restart from delta = 0, and the factor's copy of the
-// solution follows (reloaded whole after a reordering).
+// See detail::refactorAndRestart (update_steps.h), shared with the other façade.
 template <class Model>
 Status Smoother<Model>::refactor(Index new_variables, const UpdatePlan& plan, bool allow_reorder,
                                  UpdateResult& r) {
-  const Index n = cholesky_.columns();
-  const StagedVariables relinearized{relinearization_.staged(), plan.relinearized};
-  bool positions_moved = false;
-  const Status s = driver_.refactor(ordering_, plan, relinearized, new_variables, allow_reorder,
-                                    &positions_moved, r);
-  if (s != Status::Ok) return s;
-  const Index* position_of = ordering_.positionOf();
-  const auto restart = [&](Index v) {
-    delta_[v].setZero();
-    if (!positions_moved) cholesky_.setSolution(position_of[v], Vector::Zero());
-  };
-  for (Index i = 0; i < relinearized.count; ++i) restart(relinearized.list[i]);
-  for (Index v = n; v < n + new_variables; ++v) restart(v);
-  if (positions_moved) cholesky_.loadSolution(delta_, ordering_.variableAt());
-  return Status::Ok;
+  return detail::refactorAndRestart(cholesky_, ordering_, relinearization_, driver_, delta_,
+                                    new_variables, plan, allow_reorder, r);
 }
 
 template <class Model>

@@ -1,0 +1,90 @@
+#pragma once
+// The steps of an update shared by the façades (PoseGraphSolver2D, Smoother<Model>): the plan of
+// what an update does besides adding its inputs, and the factorization through the driver with the
+// restart of the variables' solution. Templates over the façade's parts, so that each façade keeps
+// its own types and the two cannot drift apart.
+#include "lslam/solver/factorization_driver.h"
+#include "lslam/solver/ordering_policy.h"
+#include "lslam/solver/relinearization_policy.h"
+
+namespace lslam {
+namespace detail {
+
+// What an update does besides adding its variables and factors (their graph change is staged): a
+// prepared ordering is applied now; a stale one is replaced now, or prepared at the end of this
+// update and applied by the next (prepare_ordering_ahead). The candidates are relinearized when
+// one is urgent, at a reordering, or every relinearize_skip updates; in place, or by a full
+// refactorization when that is cheaper (relinearizationDear). An update that drops the anchor
+// reorders now, a full refactorization: a factor cannot be taken out of L in place.
+template <class Graph, class Ordering, class Relinearization, class Driver, class Vector>
+UpdatePlan planUpdate(Graph& graph, Ordering& ordering, Relinearization& relinearization,
+                      Driver& driver, const Vector* delta, Index new_variables, bool drop_anchor) {
+  UpdatePlan plan;
+  plan.drop_anchor = drop_anchor;
+  ordering.placeAddedVariablesLast();
+  const Index* position_of = ordering.positionOf();
+  plan.fresh_ordering = ordering.wantsFreshOrdering(graph.factors() - driver.firstNewFactor(), [&] {
+    return driver.addedLoopClosures(position_of);
+  });
+  const bool prepared = ordering.prepared();
+  const bool ordering_stale = prepared || plan.fresh_ordering || ordering.wantsReorder();
+  plan.prepare_ordering = ordering_stale && !prepared && !plan.fresh_ordering && !drop_anchor &&
+                          ordering.preparesOrderingAhead(driver.lastFull().products);
+  plan.reorder_now = (ordering_stale || drop_anchor) && !plan.prepare_ordering;
+  plan.relinearize_now = relinearization.due(plan.reorder_now);
+  // Outside a reordering only the candidates past the partial bar (see relinearize_partial_...).
+  plan.relinearized = plan.relinearize_now ? relinearization.stageCandidates(
+                                                 plan.reorder_now ? CandidateRange::PastThreshold
+                                                                  : CandidateRange::PastPartial,
+                                                 delta, 0)
+                                           : 0;
+  plan.refactor_fully =
+      !plan.reorder_now &&
+      relinearization.relinearizationDear(plan.relinearized, driver.lastFull(), [&] {
+        return driver.inPlaceProducts(new_variables, position_of,
+                                      StagedVariables{relinearization.staged(), plan.relinearized});
+      });
+  if (plan.refactor_fully && !ordering.orderingFresh() &&
+      ordering.preparesOrderingAhead(driver.lastFull().products)) {
+    // A full refactorization in a stale ordering is nearly the price of a reordering: this update
+    // only adds its factors, and the next one reorders and relinearizes (the candidates wait).
+    graph.unstageRelinearization();
+    plan.relinearized = 0;
+    plan.relinearize_now = false;
+    plan.refactor_fully = false;
+    plan.prepare_ordering = true;  // (a prepared ordering would have been applied: not stale)
+  } else if (plan.refactor_fully && relinearization.partialLeavesWaiting()) {
+    // Every column is refactorized anyway: the waiting candidates come along for their
+    // linearization alone.
+    plan.relinearized =
+        relinearization.stageCandidates(CandidateRange::LeftWaiting, delta, plan.relinearized);
+  }
+  return plan;
+}
+
+// The driver commits the factor and the graph; the relinearized and the added variables then
+// restart from delta = 0. The factor's copy of the solution (by position) follows them, or is
+// reloaded whole after a reordering moved the variables.
+template <class Factor, class Ordering, class Relinearization, class Driver, class Vector>
+Status refactorAndRestart(Factor& factor, Ordering& ordering, Relinearization& relinearization,
+                          Driver& driver, Vector* delta, Index new_variables,
+                          const UpdatePlan& plan, bool allow_reorder, UpdateResult& r) {
+  const Index n = factor.columns();
+  const StagedVariables relinearized{relinearization.staged(), plan.relinearized};
+  bool positions_moved = false;
+  const Status s = driver.refactor(ordering, plan, relinearized, new_variables, allow_reorder,
+                                   &positions_moved, r);
+  if (s != Status::Ok) return s;
+  const Index* position_of = ordering.positionOf();
+  const auto restart = [&](Index v) {
+    delta[v].setZero();
+    if (!positions_moved) factor.setSolution(position_of[v], Vector::Zero());
+  };
+  for (Index i = 0; i < relinearized.count; ++i) restart(relinearized.list[i]);
+  for (Index v = n; v < n + new_variables; ++v) restart(v);
+  if (positions_moved) factor.loadSolution(delta, ordering.variableAt());
+  return Status::Ok;
+}
+
+}  // namespace detail
+}  // namespace lslam
