@@ -21,6 +21,9 @@
 #include "host_sim/cli_args.h"
 #include "host_sim/dataset_io.h"
 #include "host_sim/incremental_run.h"
+#include "host_sim/model_batch_solver.h"
+#include "host_sim/model_dataset_io.h"
+#include "host_sim/model_run.h"
 #include "host_sim/synthetic.h"
 
 namespace {
@@ -63,12 +66,12 @@ long peakRssKb() {
   return usage.ru_maxrss;
 }
 
-void writeCsv(const std::string& path, const IncrementalRun& run) {
+void writeCsv(const std::string& path, const std::vector<StepRecord>& steps) {
   std::ofstream f(path);
   if (!f) throw std::runtime_error("cannot write " + path);
   f << "step,kind,microseconds,columns_refactored,variables_solved,variables_relinearized,"
        "reordered,factor_blocks,solve_microseconds,block_products\n";
-  for (const StepRecord& s : run.steps) {
+  for (const StepRecord& s : steps) {
     f << s.index << ',' << stepKindName(s.kind) << ',' << s.microseconds << ','
       << s.result.columns_refactored << ',' << s.result.variables_solved << ','
       << s.result.variables_relinearized << ',' << (s.result.reordered ? 1 : 0) << ','
@@ -91,90 +94,213 @@ void writeEstimate(const std::string& path, const Dataset2D& d, const Incrementa
   writeG2oFile(path, out);
 }
 
-int run(const RunArgs& args) {
+// What `run` reports, from either solver: the JSON keys and the summary lines.
+struct RunSummary {
+  const char* order = "online";
+  std::size_t poses = 0, landmarks = 0, factors = 0, steps = 0;
+  double chi2_initial = 0, chi2_incremental = 0;
+  double chi2_batch = 0, batch_seconds = 0;
+  bool batch_converged = false;
+  int batch_iterations = 0;
+  std::string batch_stop_reason;
+  double max_position_diff = 0, total_seconds = 0;
+  double median = 0, p99 = 0, worst = 0, odometry_median = 0, odometry_max = 0, loop_median = 0,
+         loop_max = 0;
+  lslam::Index reorders = 0, factor_blocks = 0;
+  std::size_t solver_bytes = 0;
+};
+
+void setStepTimes(const std::vector<StepRecord>& steps, RunSummary& out) {
+  std::vector<double> ms, ms_odometry, ms_loop;
+  for (const StepRecord& s : steps) {
+    ms.push_back(s.microseconds * 1e-3);
+    (s.kind == StepKind::LoopClosure ? ms_loop : ms_odometry).push_back(s.microseconds * 1e-3);
+  }
+  out.median = percentile(ms, 0.5);
+  out.p99 = percentile(ms, 0.99);
+  out.worst = percentile(ms, 1.0);
+  out.odometry_median = percentile(ms_odometry, 0.5);
+  out.odometry_max = percentile(ms_odometry, 1.0);
+  out.loop_median = percentile(ms_loop, 0.5);
+  out.loop_max = percentile(ms_loop, 1.0);
+}
+
+std::string toJson(const RunArgs& args, const RunSummary& r) {
+  std::ostringstream js;
+  js.precision(10);
+  js << "{\"dataset\": " << jsonString(args.dataset) << ", \"poses\": " << r.poses
+     << ", \"landmarks\": " << r.landmarks << ", \"factors\": " << r.factors
+     << ", \"steps\": " << r.steps << ", \"order\": \"" << r.order << "\""
+     << ", \"solve_every\": " << args.solve_every << ", \"chi2_initial\": " << r.chi2_initial
+     << ", \"chi2_incremental\": " << r.chi2_incremental << ", \"chi2_batch\": " << r.chi2_batch
+     << ", \"batch_converged\": " << (r.batch_converged ? "true" : "false")
+     << ", \"batch_iterations\": " << r.batch_iterations << ", \"batch_s\": " << r.batch_seconds
+     << ", \"batch_stop_reason\": " << jsonString(r.batch_stop_reason)
+     << ", \"max_position_diff\": " << r.max_position_diff << ", \"total_s\": " << r.total_seconds
+     << ", \"step_ms\": {\"median\": " << r.median << ", \"p99\": " << r.p99
+     << ", \"max\": " << r.worst << "}, \"odometry_step_ms\": {\"median\": " << r.odometry_median
+     << ", \"max\": " << r.odometry_max << "}, \"loop_step_ms\": {\"median\": " << r.loop_median
+     << ", \"max\": " << r.loop_max << "}, \"reorders\": " << r.reorders
+     << ", \"factor_blocks\": " << r.factor_blocks << ", \"solver_bytes\": " << r.solver_bytes
+     << ", \"peak_rss_kb\": " << peakRssKb() << "}";
+  return js.str();
+}
+
+void printSummary(const RunArgs& args, const RunSummary& r) {
+  const double rel = r.chi2_batch > 0 ? 100.0 * (r.chi2_incremental / r.chi2_batch - 1.0) : 0.0;
+  std::printf("dataset            %s (%s order, solve every %d)\n", args.dataset.c_str(), r.order,
+              args.solve_every);
+  std::printf("poses / landmarks / measurements  %zu / %zu / %zu in %zu steps\n", r.poses,
+              r.landmarks, r.factors, r.steps);
+  std::printf("chi2 initial       %.6g\n", r.chi2_initial);
+  std::printf("chi2 incremental   %.6f  (%+.4f%% vs batch)\n", r.chi2_incremental, rel);
+  std::printf("chi2 batch         %.6f  (%s, %d iterations, %.3f s: %s)\n", r.chi2_batch,
+              r.batch_converged ? "converged" : "NOT CONVERGED", r.batch_iterations,
+              r.batch_seconds, r.batch_stop_reason.c_str());
+  std::printf("max position diff  %.3g m (incremental vs batch)\n", r.max_position_diff);
+  std::printf("incremental total  %.4f s, per step median %.4f ms, p99 %.4f ms, max %.4f ms\n",
+              r.total_seconds, r.median, r.p99, r.worst);
+  std::printf("                   odometry steps max %.4f ms, loop-closure steps max %.4f ms\n",
+              r.odometry_max, r.loop_max);
+  std::printf("reorders           %d, factor blocks %d, solver object %zu bytes, peak RSS %ld kB\n",
+              static_cast<int>(r.reorders), static_cast<int>(r.factor_blocks), r.solver_bytes,
+              peakRssKb());
+}
+
+// The report (file, JSON on stdout or the summary) once the run's own outputs are written.
+int report(const RunArgs& args, const RunSummary& summary) {
+  const std::string json = toJson(args, summary);
+  if (!args.report.empty()) {
+    std::ofstream f(args.report);
+    if (!f) throw std::runtime_error("cannot write " + args.report);
+    f << json << '\n';
+  }
+  if (args.json) {
+    std::cout << json << std::endl;
+  } else {
+    printSummary(args, summary);
+  }
+  return 0;
+}
+
+// The batch reference's figures (BatchResult or ModelBatchResult).
+template <class Batch>
+void setBatch(const Batch& batch, RunSummary& r) {
+  r.chi2_batch = batch.chi2;
+  r.batch_converged = batch.converged;
+  r.batch_iterations = batch.iterations;
+  r.batch_seconds = batch.seconds;
+  r.batch_stop_reason = batch.stop_reason;
+}
+
+// The incremental run's figures (IncrementalRun or ModelRun).
+template <class Run>
+void setRun(const Run& inc, RunSummary& r) {
+  r.steps = inc.steps.size();
+  r.total_seconds = inc.total_seconds;
+  setStepTimes(inc.steps, r);
+  r.reorders = inc.reorders;
+  r.factor_blocks = inc.factor_blocks;
+  r.solver_bytes = inc.solver_bytes;
+}
+
+IncrementalOptions incrementalOptions(const RunArgs& args) {
+  IncrementalOptions options;
+  options.order = args.order;
+  options.solve_every = args.solve_every;
+  options.solver = args.solver;
+  return options;
+}
+
+// The model estimate with every measurement, in g2o records, the anchor as the FIX.
+void writeModelEstimate(const std::string& path, const ModelDataset& d, const ModelRun& run) {
+  ModelDataset out;
+  out.name = path;
+  out.dimension = d.dimension;
+  const auto kinds = variableKinds(d);
+  std::vector<VariableKey> keys;
+  for (const auto& [key, value] : run.estimate) keys.push_back(key);
+  std::sort(keys.begin(), keys.end(), [](const VariableKey& a, const VariableKey& b) {
+    return a.role != b.role ? a.role == VariableRole::Pose : a.id < b.id;
+  });
+  for (const VariableKey& key : keys) {
+    out.vertices.push_back(ModelVertex{key, kinds.at(key), run.estimate.at(key), 0});
+  }
+  out.factors = d.factors;
+  if (run.anchor.id >= 0) out.fixed = {run.anchor};
+  writeModelG2oFile(path, out);
+}
+
+// A dataset with 3D poses or landmarks, through Smoother<Model>.
+int runModel(const RunArgs& args, const ModelDataset& d) {
+  if (args.order != StepOrder::Online) {
+    std::fprintf(stderr, "lslam-sim: %s: --order file is for 2D pose graphs; this dataset has %s\n",
+                 args.dataset.c_str(), d.dimension == 3 ? "3D poses" : "landmarks");
+    return 1;
+  }
+  const ModelRun inc = runModelIncremental(d, incrementalOptions(args));
+  if (!inc.gauge_note.empty())
+    std::fprintf(stderr, "lslam-sim: note: %s\n", inc.gauge_note.c_str());
+  RunSummary r;
+  r.poses = static_cast<std::size_t>(inc.poses);
+  r.landmarks = static_cast<std::size_t>(inc.landmarks);
+  r.factors = d.factors.size();
+  r.chi2_incremental = chi2(d, inc.estimate);
+  r.chi2_initial = chi2(d, inc.initial);
+  // The batch holds the solver's anchor fixed (the same gauge) and starts where the solver did.
+  BatchOptions batch_options;
+  if (inc.anchor.id >= 0) batch_options.fixed = {inc.anchor.id};
+  const ModelBatchResult batch = solveModelBatch(d, inc.initial, batch_options);
+  setBatch(batch, r);
+  for (const auto& [key, value] : inc.estimate) {
+    const Eigen::VectorXd& other = batch.values.at(key);
+    const int n = d.dimension;  // every kind's parameters start with its position
+    r.max_position_diff = std::max(r.max_position_diff, (value.head(n) - other.head(n)).norm());
+  }
+  setRun(inc, r);
+  if (!args.csv.empty()) writeCsv(args.csv, inc.steps);
+  if (!args.out.empty()) writeModelEstimate(args.out, d, inc);
+  return report(args, r);
+}
+
+// A 2D pose graph, through PoseGraphSolver2D.
+int runPoseGraph2D(const RunArgs& args) {
   const Dataset2D d = readDataset2D(args.dataset);
   if (d.vertices.empty() && d.edges.empty()) {
     std::fprintf(stderr, "lslam-sim: %s: no poses/edges to run\n", args.dataset.c_str());
     return 1;
   }
-  IncrementalOptions options;
-  options.order = args.order;
-  options.solve_every = args.solve_every;
-  options.solver = args.solver;
-  const IncrementalRun inc = runIncremental(d, options);
+  const IncrementalRun inc = runIncremental(d, incrementalOptions(args));
   if (!inc.gauge_note.empty())
     std::fprintf(stderr, "lslam-sim: note: %s\n", inc.gauge_note.c_str());
-  const double chi2_inc = chi2G2o(d, inc.estimate);
-  const double chi2_initial = chi2G2o(d, inc.initial);
-
+  RunSummary r;
+  r.order = args.order == StepOrder::Online ? "online" : "file";
+  r.poses = inc.estimate.size();
+  r.factors = d.edges.size();
+  r.chi2_incremental = chi2G2o(d, inc.estimate);
+  r.chi2_initial = chi2G2o(d, inc.initial);
   // The batch holds the pose the incremental solver anchors fixed (the same gauge), whatever pose
   // the file's FIX names (runIncremental notes it; FIX of two poses it rejects).
   BatchOptions batch_options;
   if (inc.anchor >= 0) batch_options.fixed = {inc.anchor};
   const BatchResult batch = solveBatch2D(d, inc.initial, batch_options);
-  double max_diff = 0.0;
+  setBatch(batch, r);
   for (const auto& [id, p] : inc.estimate) {
     const Pose2D& q = batch.poses.at(id);
-    max_diff = std::max(max_diff, std::hypot(p.x - q.x, p.y - q.y));
+    r.max_position_diff = std::max(r.max_position_diff, std::hypot(p.x - q.x, p.y - q.y));
   }
-  std::vector<double> ms;
-  std::vector<double> ms_odometry, ms_loop;
-  for (const StepRecord& s : inc.steps) {
-    ms.push_back(s.microseconds * 1e-3);
-    (s.kind == StepKind::LoopClosure ? ms_loop : ms_odometry).push_back(s.microseconds * 1e-3);
-  }
-  const double median = percentile(ms, 0.5), p99 = percentile(ms, 0.99),
-               worst = percentile(ms, 1.0);
-
-  std::ostringstream js;
-  js.precision(10);
-  js << "{\"dataset\": " << jsonString(args.dataset) << ", \"poses\": " << inc.estimate.size()
-     << ", \"factors\": " << d.edges.size() << ", \"steps\": " << inc.steps.size()
-     << ", \"order\": \"" << (args.order == StepOrder::Online ? "online" : "file") << "\""
-     << ", \"solve_every\": " << args.solve_every << ", \"chi2_initial\": " << chi2_initial
-     << ", \"chi2_incremental\": " << chi2_inc << ", \"chi2_batch\": " << batch.chi2
-     << ", \"batch_converged\": " << (batch.converged ? "true" : "false")
-     << ", \"batch_iterations\": " << batch.iterations << ", \"batch_s\": " << batch.seconds
-     << ", \"batch_stop_reason\": " << jsonString(batch.stop_reason)
-     << ", \"max_position_diff\": " << max_diff << ", \"total_s\": " << inc.total_seconds
-     << ", \"step_ms\": {\"median\": " << median << ", \"p99\": " << p99 << ", \"max\": " << worst
-     << "}, \"odometry_step_ms\": {\"median\": " << percentile(ms_odometry, 0.5)
-     << ", \"max\": " << percentile(ms_odometry, 1.0)
-     << "}, \"loop_step_ms\": {\"median\": " << percentile(ms_loop, 0.5)
-     << ", \"max\": " << percentile(ms_loop, 1.0) << "}, \"reorders\": " << inc.reorders
-     << ", \"factor_blocks\": " << inc.factor_blocks << ", \"solver_bytes\": " << inc.solver_bytes
-     << ", \"peak_rss_kb\": " << peakRssKb() << "}";
-
-  if (!args.csv.empty()) writeCsv(args.csv, inc);
+  setRun(inc, r);
+  if (!args.csv.empty()) writeCsv(args.csv, inc.steps);
   if (!args.out.empty()) writeEstimate(args.out, d, inc);
-  if (!args.report.empty()) {
-    std::ofstream f(args.report);
-    if (!f) throw std::runtime_error("cannot write " + args.report);
-    f << js.str() << '\n';
-  }
-  if (args.json) {
-    std::cout << js.str() << std::endl;
-    return 0;
-  }
-  const double rel = batch.chi2 > 0 ? 100.0 * (chi2_inc / batch.chi2 - 1.0) : 0.0;
-  std::printf("dataset            %s (%s order, solve every %d)\n", args.dataset.c_str(),
-              args.order == StepOrder::Online ? "online" : "file", args.solve_every);
-  std::printf("poses / measurements  %zu / %zu in %zu steps\n", inc.estimate.size(), d.edges.size(),
-              inc.steps.size());
-  std::printf("chi2 initial       %.6g\n", chi2_initial);
-  std::printf("chi2 incremental   %.6f  (%+.4f%% vs batch)\n", chi2_inc, rel);
-  std::printf("chi2 batch         %.6f  (%s, %d iterations, %.3f s: %s)\n", batch.chi2,
-              batch.converged ? "converged" : "NOT CONVERGED", batch.iterations, batch.seconds,
-              batch.stop_reason.c_str());
-  std::printf("max position diff  %.3g m (incremental vs batch)\n", max_diff);
-  std::printf("incremental total  %.4f s, per step median %.4f ms, p99 %.4f ms, max %.4f ms\n",
-              inc.total_seconds, median, p99, worst);
-  std::printf("                   odometry steps max %.4f ms, loop-closure steps max %.4f ms\n",
-              percentile(ms_odometry, 1.0), percentile(ms_loop, 1.0));
-  std::printf("reorders           %d, factor blocks %d, solver object %zu bytes, peak RSS %ld kB\n",
-              static_cast<int>(inc.reorders), static_cast<int>(inc.factor_blocks), inc.solver_bytes,
-              peakRssKb());
-  return 0;
+  return report(args, r);
+}
+
+int run(const RunArgs& args) {
+  // Every format reads as a model dataset; 2D pose graphs run on PoseGraphSolver2D (read again by
+  // its own reader), the rest on Smoother<Model>.
+  const ModelDataset model = readModelDataset(args.dataset);
+  if (isPoseGraph2D(model)) return runPoseGraph2D(args);
+  return runModel(args, model);
 }
 
 int generate(const GenerateArgs& args) {

@@ -15,6 +15,7 @@
 #include "host_sim/model_batch_solver.h"
 #include "host_sim/model_chi2.h"
 #include "host_sim/model_dataset.h"
+#include "lslam/models/pose_slam_3d.h"
 #include "lslam/models/slam_2d.h"
 #include "lslam/models/slam_3d.h"
 #include "lslam/solver/smoother.h"
@@ -27,6 +28,7 @@ using lslam::Mat3;
 using lslam::Mat6;
 using lslam::Point2;
 using lslam::Point3;
+using lslam::PoseSlam3D;
 using lslam::SE2;
 using lslam::SE3;
 using lslam::Slam2D;
@@ -189,13 +191,17 @@ Eigen::VectorXd vec(const SE3& x) {
   return v;
 }
 
-Stream<Slam3D> stream3D(unsigned seed, int poses, int landmarks) {
-  using Var = lslam::ModelVariableInput<Slam3D>;
-  using Fac = lslam::ModelFactorInput<Slam3D>;
+// Slam3D, or PoseSlam3D (the same poses and pose factors; landmarks must be 0).
+template <class Model = Slam3D>
+Stream<Model> stream3D(unsigned seed, int poses, int landmarks) {
+  using Var = lslam::ModelVariableInput<Model>;
+  using Fac = lslam::ModelFactorInput<Model>;
+  constexpr bool kLandmarks = Model::Variables::kSize == 2;
+  REQUIRE((kLandmarks || landmarks == 0));
   std::mt19937 rng(seed);
   std::normal_distribution<double> noise(0.0, 1.0);
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
-  Stream<Slam3D> s;
+  Stream<Model> s;
   s.dataset.name = "random 3D";
   s.dataset.dimension = 3;
   std::vector<Eigen::Isometry3d> truth;
@@ -214,7 +220,7 @@ Stream<Slam3D> stream3D(unsigned seed, int poses, int landmarks) {
     return toSE3(z * n);
   };
   for (int k = 0; k < poses; ++k) {
-    Step<Slam3D> step;
+    Step<Model> step;
     if (k == 0) {
       truth.push_back(Eigen::Isometry3d::Identity());
       initial.push_back(SE3());
@@ -227,13 +233,13 @@ Stream<Slam3D> stream3D(unsigned seed, int poses, int landmarks) {
       truth.push_back(truth[k - 1] * move);
       const SE3 z = noisy(move);
       initial.push_back(toSE3(toIso(initial[k - 1]) * toIso(z)));
-      step.factors.push_back(Fac::make<lslam::BetweenSE3Factor>(k - 1, k, z, odo_info));
+      step.factors.push_back(Fac::template make<lslam::BetweenSE3Factor>(k - 1, k, z, odo_info));
       addFactor(s, sim::FactorKind::BetweenSE3, poseKey(k - 1), poseKey(k), vec(z), odo_info);
       for (int j = 0; j + 8 < k; ++j) {
         const Eigen::Isometry3d rel = truth[j].inverse() * truth[k];
         if (rel.translation().norm() < 2.0 && uniform(rng) < 0.3) {
           const SE3 zl = noisy(rel);
-          step.factors.push_back(Fac::make<lslam::BetweenSE3Factor>(j, k, zl, odo_info));
+          step.factors.push_back(Fac::template make<lslam::BetweenSE3Factor>(j, k, zl, odo_info));
           addFactor(s, sim::FactorKind::BetweenSE3, poseKey(j), poseKey(k), vec(zl), odo_info);
           break;
         }
@@ -245,13 +251,16 @@ Stream<Slam3D> stream3D(unsigned seed, int poses, int landmarks) {
       const Vec3 local = truth[k].inverse() * marks[l];
       if (local.norm() > 4.0) continue;
       const Vec3 z = local + 0.05 * Vec3(noise(rng), noise(rng), noise(rng));
-      step.factors.push_back(Fac::make<lslam::PointObservationSE3Factor>(k, l, z, obs_info));
-      addFactor(s, sim::FactorKind::PointXYZ3, poseKey(k), landmarkKey(l), z, obs_info);
-      if (!seen[l]) {
-        seen[l] = true;
-        const Vec3 w = toIso(initial[k]) * z;
-        step.variables.push_back(Var::make(l, Point3(w)));
-        s.initial[landmarkKey(l)] = w;
+      if constexpr (kLandmarks) {
+        step.factors.push_back(
+            Fac::template make<lslam::PointObservationSE3Factor>(k, l, z, obs_info));
+        addFactor(s, sim::FactorKind::PointXYZ3, poseKey(k), landmarkKey(l), z, obs_info);
+        if (!seen[l]) {
+          seen[l] = true;
+          const Vec3 w = toIso(initial[k]) * z;
+          step.variables.push_back(Var::make(l, Point3(w)));
+          s.initial[landmarkKey(l)] = w;
+        }
       }
     }
     s.steps.push_back(step);
@@ -266,7 +275,7 @@ Stream<Slam3D> stream3D(unsigned seed, int poses, int landmarks) {
 template <class Model>
 std::vector<double> snapshot(const lslam::Smoother<Model>& s) {
   using Pose = lslam::TypeAtT<0, typename Model::Variables>;
-  using Landmark = lslam::TypeAtT<1, typename Model::Variables>;
+  using Landmark = lslam::TypeAtT<Model::Variables::kSize - 1, typename Model::Variables>;
   std::vector<double> out;
   out.push_back(static_cast<double>(s.variables()));
   out.push_back(static_cast<double>(s.factors()));
@@ -309,6 +318,7 @@ sim::ModelBatchResult batch(const sim::ModelDataset& d, const sim::ModelEstimate
 
 using Smoother2D = lslam::StaticSmoother<Slam2D, 160, 40, 1600, 1600 * 12, 24000, 24000 * 9>;
 using Smoother3D = lslam::StaticSmoother<Slam3D, 130, 40, 1600, 1600 * 43, 20000, 20000 * 36>;
+using SmootherPoses3D = lslam::StaticSmoother<PoseSlam3D, 200, 0, 1600, 1600 * 43, 20000, 0>;
 
 // Online, then optimize(): chi2 within 1e-6 relative of the batch optimum; every estimate within
 // 1e-6 (pose translation and landmark coordinates, m; angle or quaternion coefficients) of the
@@ -316,7 +326,7 @@ using Smoother3D = lslam::StaticSmoother<Slam3D, 130, 40, 1600, 1600 * 43, 20000
 template <class Model, class S>
 void checkAgainstBatch(const Stream<Model>& stream, S& smoother, int kPoseParams) {
   using Pose = lslam::TypeAtT<0, typename Model::Variables>;
-  using Landmark = lslam::TypeAtT<1, typename Model::Variables>;
+  using Landmark = lslam::TypeAtT<Model::Variables::kSize - 1, typename Model::Variables>;
   int reordered = 0;
   for (std::size_t k = 0; k < stream.steps.size(); ++k) {
     CAPTURE(k);
@@ -354,7 +364,7 @@ void checkAgainstBatch(const Stream<Model>& stream, S& smoother, int kPoseParams
     if (pose) {
       mine = vec(smoother.template estimateAt<Pose>(v));
       if (kPoseParams == 7 && mine(6) * ref(6) < 0.0) mine.tail<4>() *= -1.0;  // q and -q
-    } else {
+    } else if constexpr (Model::Variables::kSize == 2) {
       mine = smoother.template estimateAt<Landmark>(v).vector();
     }
     REQUIRE(mine.size() == ref.size());
@@ -397,6 +407,19 @@ TEST_CASE("Slam3D streams: online estimates finite, optimize() reaches the batch
     auto smoother = std::make_unique<Smoother3D>();
     checkAgainstBatch(stream, *smoother, 7);
     CHECK(smoother->landmarks() > 10);
+  }
+}
+
+TEST_CASE(
+    "PoseSlam3D streams (one block size, row updates): optimize() reaches the batch optimum") {
+  const unsigned seeds[] = {5, 13};
+  const int poses[] = {90, 180};
+  for (int i = 0; i < 2; ++i) {
+    CAPTURE(seeds[i]);
+    const Stream<PoseSlam3D> stream = stream3D<PoseSlam3D>(seeds[i], poses[i], 0);
+    auto smoother = std::make_unique<SmootherPoses3D>();
+    checkAgainstBatch(stream, *smoother, 7);
+    CHECK(smoother->landmarks() == 0);
   }
 }
 

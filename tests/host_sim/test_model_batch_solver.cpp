@@ -18,6 +18,7 @@
 #include "host_sim/chi2.h"
 #include "host_sim/model_batch_solver.h"
 #include "host_sim/model_chi2.h"
+#include "model_test_support.h"
 
 using lslam::sim::BatchMethod;
 using lslam::sim::BatchOptions;
@@ -32,65 +33,11 @@ using lslam::sim::VariableKind;
 using lslam::sim::VariableRole;
 using lslam::sim::Vector7d;
 namespace sim = lslam::sim;
+using namespace lslam::sim::test;
 
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-
-VariableKey pose(std::int64_t id) {
-  return VariableKey{VariableRole::Pose, id};
-}
-VariableKey landmark(std::int64_t id) {
-  return VariableKey{VariableRole::Landmark, id};
-}
-
-Eigen::Matrix4d h3(const Eigen::VectorXd& p) {
-  Eigen::Matrix4d t = Eigen::Matrix4d::Identity();
-  t.topLeftCorner<3, 3>() = Eigen::Quaterniond(p[6], p[3], p[4], p[5]).normalized().matrix();
-  t.topRightCorner<3, 1>() = p.head<3>();
-  return t;
-}
-
-Eigen::VectorXd fromH3(const Eigen::Matrix4d& t) {
-  const Eigen::Quaterniond q(Eigen::Matrix3d(t.topLeftCorner<3, 3>()));
-  Vector7d p;
-  p << t(0, 3), t(1, 3), t(2, 3), q.x(), q.y(), q.z(), q.w();
-  return p;
-}
-
-Eigen::Matrix3d h2(const Eigen::VectorXd& x) {
-  Eigen::Matrix3d t = Eigen::Matrix3d::Identity();
-  t.topLeftCorner<2, 2>() = Eigen::Rotation2Dd(x[2]).matrix();
-  t(0, 2) = x[0];
-  t(1, 2) = x[1];
-  return t;
-}
-
-Eigen::VectorXd fromH2(const Eigen::Matrix3d& t) {
-  return Eigen::Vector3d(t(0, 2), t(1, 2), std::atan2(t(1, 0), t(0, 0)));
-}
-
-Eigen::MatrixXd randomInformation(std::mt19937& rng, int n, const Eigen::VectorXd& diag) {
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  Eigen::MatrixXd b(n, n);
-  for (int r = 0; r < n; ++r) {
-    for (int c = 0; c < n; ++c) b(r, c) = u(rng);
-  }
-  Eigen::MatrixXd omega = b * b.transpose();
-  omega.diagonal() += diag;
-  return omega;
-}
-
-ModelFactor factor(FactorKind kind, VariableKey a, VariableKey b, Eigen::VectorXd z,
-                   Eigen::MatrixXd info) {
-  ModelFactor f;
-  f.kind = kind;
-  f.first = a;
-  f.second = b;
-  f.measurement = std::move(z);
-  f.information = std::move(info);
-  return f;
-}
 
 VariableKind kindOf(const ModelDataset& d, const VariableKey& k) {
   return sim::variableKinds(d).at(k);
@@ -145,7 +92,7 @@ Problem make2D(unsigned seed, ObjectiveConvention convention, bool landmarks, do
         fromH2(h2(p.truth.at(pose(3 + i))).inverse() * h2(p.truth.at(pose(3 + j))));
     const Eigen::Vector3d z = exact + sigma * Eigen::Vector3d(gauss(rng), gauss(rng), gauss(rng));
     p.d.factors.push_back(factor(FactorKind::BetweenSE2, pose(3 + i), pose(3 + j), z,
-                                 randomInformation(rng, 3, Eigen::Vector3d(10.0, 10.0, 40.0))));
+                                 randomInformation(rng, Eigen::Vector3d(10.0, 10.0, 40.0))));
   };
   for (int i = 0; i + 1 < n; ++i) between(i, i + 1);
   std::uniform_int_distribution<int> pick(0, n - 1);
@@ -168,12 +115,12 @@ Problem make2D(unsigned seed, ObjectiveConvention convention, bool landmarks, do
         if ((i + l) % 2 == 0) {
           p.d.factors.push_back(factor(FactorKind::PointXY2, pose(3 + i), landmark(l),
                                        local + sigma * Eigen::Vector2d(gauss(rng), gauss(rng)),
-                                       randomInformation(rng, 2, Eigen::Vector2d(20.0, 20.0))));
+                                       randomInformation(rng, Eigen::Vector2d(20.0, 20.0))));
         } else {
           const Eigen::Vector2d rb(local.norm() + sigma * gauss(rng),
                                    std::atan2(local.y(), local.x()) + sigma * gauss(rng));
           p.d.factors.push_back(factor(FactorKind::RangeBearing2, pose(3 + i), landmark(l), rb,
-                                       randomInformation(rng, 2, Eigen::Vector2d(20.0, 50.0))));
+                                       randomInformation(rng, Eigen::Vector2d(20.0, 50.0))));
         }
       }
     }
@@ -232,7 +179,7 @@ Problem make3D(unsigned seed, ObjectiveConvention convention, bool landmarks, do
     const Eigen::VectorXd exact =
         fromH3(h3(p.truth.at(pose(i))).inverse() * h3(p.truth.at(pose(j))));
     p.d.factors.push_back(factor(FactorKind::BetweenSE3, pose(i), pose(j), noisy(exact),
-                                 randomInformation(rng, 6, diag6)));
+                                 randomInformation(rng, diag6)));
   };
   for (int i = 0; i + 1 < n; ++i) between(i, i + 1);
   std::uniform_int_distribution<int> pick(0, n - 1);
@@ -253,11 +200,11 @@ Problem make3D(unsigned seed, ObjectiveConvention convention, bool landmarks, do
         p.d.factors.push_back(
             factor(FactorKind::PointXYZ3, pose(i), landmark(l),
                    local.head<3>() + sigma * Eigen::Vector3d(gauss(rng), gauss(rng), gauss(rng)),
-                   randomInformation(rng, 3, Eigen::Vector3d(20.0, 20.0, 20.0))));
+                   randomInformation(rng, Eigen::Vector3d(20.0, 20.0, 20.0))));
       }
     }
     p.d.factors.push_back(factor(FactorKind::PriorSE3, pose(2), VariableKey{},
-                                 noisy(p.truth.at(pose(2))), randomInformation(rng, 6, diag6)));
+                                 noisy(p.truth.at(pose(2))), randomInformation(rng, diag6)));
     p.d.factors.push_back(factor(FactorKind::PriorPoint3, landmark(1), VariableKey{},
                                  p.truth.at(landmark(1)), Eigen::Matrix3d::Identity()));
   }

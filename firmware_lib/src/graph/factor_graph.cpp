@@ -1,7 +1,9 @@
 #include "lslam/graph/factor_graph.h"
 
+#include <Eigen/Cholesky>
 #include <cstring>
 
+#include "lslam/models/pose_slam_3d.h"
 #include "lslam/models/slam_2d.h"
 #include "lslam/models/slam_3d.h"
 
@@ -252,6 +254,51 @@ double FactorGraph<Model>::factorChi2(Index f) const {
 }
 
 template <class Model>
+Index FactorGraph<Model>::whitenedRows(Index f, const Index* position, Index* positions,
+                                       RowBlock* rows_transposed, Delta* rhs) const {
+  if constexpr (kWhitenedRows) {
+    Index count = 0;
+    visitKind<Factors>(a_.factor_kind[f], [&](auto* tag) {
+      using F = std::remove_pointer_t<decltype(tag)>;
+      using A = TypeAtT<0, typename F::Variables>;
+      const double* values = factorValues(f);
+      // Omega = L L^T (checked positive definite on input): the rows are L^T J.
+      const Omega<F> l = Eigen::LLT<Omega<F>>(informationAt<F>(factorInformation(f))).matrixL();
+      const Index first = a_.first_variable[f];
+      const A xa = StoredValue<A>::load(valuesOf(first, false));
+      Matrix<F::kErrorDim, A::kDof> ja;
+      Matrix<F::kErrorDim, 1> e;
+      positions[0] = position[first];
+      if constexpr (F::Variables::kSize == 1) {
+        e = F::error(xa, measurementAt<F>(values), &ja);
+        count = 1;
+      } else {
+        using B = TypeAtT<1, typename F::Variables>;
+        const Index second = a_.second_variable[f];
+        const B xb = StoredValue<B>::load(valuesOf(second, false));
+        Matrix<F::kErrorDim, B::kDof> jb;
+        e = F::error(xa, xb, measurementAt<F>(values), &ja, &jb);
+        positions[1] = position[second];
+        rows_transposed[1].noalias() = jb.transpose() * l;
+        count = 2;
+      }
+      rows_transposed[0].noalias() = ja.transpose() * l;
+      rhs->noalias() = -(l.transpose() * e);
+    });
+    return count;
+  } else {
+    // Never called: the solver takes the row update only where kWhitenedRows holds.
+    static_cast<void>(f);
+    static_cast<void>(position);
+    static_cast<void>(positions);
+    static_cast<void>(rows_transposed);
+    static_cast<void>(rhs);
+    LSLAM_ASSERT(false);
+    return 0;
+  }
+}
+
+template <class Model>
 double FactorGraph<Model>::chi2() const {
   double sum = 0.0;
   for (Index f = 0; f < num_factors_; ++f) sum += factorChi2(f);
@@ -348,5 +395,6 @@ const double* FactorGraph<Model>::factorInformation(Index f) const {
 
 template class FactorGraph<Slam2D>;
 template class FactorGraph<Slam3D>;
+template class FactorGraph<PoseSlam3D>;
 
 }  // namespace lslam

@@ -2,6 +2,7 @@
 
 #include <type_traits>
 
+#include "lslam/models/pose_slam_3d.h"
 #include "lslam/models/slam_2d.h"
 #include "lslam/models/slam_3d.h"
 
@@ -159,5 +160,6 @@ void ModelUpdateValidator<Model>::forgetIds(const ModelVariableInput<Model>* var
 
 template class ModelUpdateValidator<Slam2D>;
 template class ModelUpdateValidator<Slam3D>;
+template class ModelUpdateValidator<PoseSlam3D>;
 
 }  // namespace lslam

@@ -19,7 +19,9 @@
 // exactly its kind's count (kFactorValues<F>), no slot is padded to the largest kind.
 //
 // Left out of PoseGraph2D: the linearization cache (every factor is linearized afresh when a
-// column asks) and whitenedRows (the mixed-size factorization has no row update).
+// column asks). whitenedRows, the rows of the row update, exists for models of one block size
+// whose factors all have that many error rows (kWhitenedRows: PoseSlam3D); the mixed-size
+// factorization has no row update.
 //
 // Every definition that is not a member template is in factor_graph.cpp, compiled for Slam2D and
 // Slam3D.
@@ -125,6 +127,16 @@ struct FactorTables<TypeList<F...>> {
     ((m = F::kErrorDim * F::kErrorDim > m ? F::kErrorDim * F::kErrorDim : m), ...);
     return m;
   }();
+  static constexpr int kMaxErrorDim = [] {
+    int m = 0;
+    ((m = F::kErrorDim > m ? F::kErrorDim : m), ...);
+    return m;
+  }();
+  static constexpr int kMinErrorDim = [] {
+    int m = kMaxErrorDim;
+    ((m = F::kErrorDim < m ? F::kErrorDim : m), ...);
+    return m;
+  }();
 };
 
 // The linear algebra types of a list of block sizes.
@@ -182,6 +194,11 @@ class FactorGraph final : public detail::LinearTypesOf<ModelBlockSizes<Model>>::
   using Later = typename detail::LinearTypesOf<Sizes>::Later;
   static constexpr int kMax = Sizes::kMax;
   using Delta = Eigen::Matrix<double, kMax, 1>;
+  // Whether whitenedRows applies: one block size, and every factor kind's error that size.
+  static constexpr bool kWhitenedRows = Sizes::kUniform &&
+                                        detail::FactorTables<Factors>::kMaxErrorDim == kMax &&
+                                        detail::FactorTables<Factors>::kMinErrorDim == kMax;
+  using RowBlock = Eigen::Matrix<double, kMax, kMax>;
   static_assert(Variables::kSize >= 1 && Variables::kSize <= kMaxVariableKinds,
                 "a pose kind and at most one landmark kind");
 
@@ -315,6 +332,13 @@ class FactorGraph final : public detail::LinearTypesOf<ModelBlockSizes<Model>>::
     return Matrix(
         Eigen::Map<const Matrix>(factorValues(f) + StoredValue<typename F::Measurement>::kSize));
   }
+
+  // The row update's rows of factor f (kWhitenedRows only): with Omega = L L^T, for each of its
+  // variables v the block J_v^T L at positions[i] = position[v], and rhs = -L^T e, at the current
+  // linearization points; returns the count (1 or 2). Lambda gains sum J^T Omega J, eta -J^T Omega
+  // e.
+  Index whitenedRows(Index f, const Index* position, Index* positions, RowBlock* rows_transposed,
+                     Delta* rhs) const;
 
   // Whitened squared error e^T Omega e of one factor at the current linearization points.
   double factorChi2(Index f) const;

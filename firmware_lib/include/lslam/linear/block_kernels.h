@@ -10,6 +10,8 @@
 // (cpuHasAvxFma), so the host binary still runs on any x86-64; a host without FMA computes the
 // same bits through std::fma in software, only slower.
 // The Cortex-M7's FPU fuses in hardware (vfma.f64). Elsewhere cpuHasAvxFma() is false.
+// Other block sizes have no AVX2 form, so no second form's bits to match: on x86-64 they take
+// Eigen's products and unfused multiply-adds, as std::fma without -mfma is a call into libm.
 #include <cmath>
 
 #include "lslam/eigen.h"
@@ -18,44 +20,69 @@
 namespace lslam {
 namespace detail {
 
+// a * b + c for the kernels of block size D: fused (std::fma) where the bits must match a fused
+// form (D = 3 on x86-64) and on targets that fuse in hardware; unfused for other D on x86-64.
+template <int D>
+inline double multiplyAdd(double a, double b, double c) {
+#if defined(__x86_64__)
+  if constexpr (D != 3) return a * b + c;
+#endif
+  return std::fma(a, b, c);
+}
+
+// Whether the kernels of block size D run the fused scalar forms below (else Eigen's products).
+template <int D>
+inline constexpr bool kFusedScalarKernels =
+#if defined(__x86_64__)
+    D == 3;
+#else
+    false;
+#endif
+
 // t += b * s: each entry t(i, c) takes b(i, 0) s(0, c), then b(i, 1) s(1, c), ..., each fused.
-// On x86-64 only; elsewhere Eigen's product, the fewest instructions on the scalar Cortex-M.
+// On x86-64 for D = 3 only; elsewhere Eigen's product, the fewest instructions on the scalar
+// Cortex-M.
 template <int D>
 inline void addBlockProduct(Eigen::Matrix<double, D, D>& t, const Eigen::Matrix<double, D, D>& b,
                             const Eigen::Matrix<double, D, D>& s) {
-#if defined(__x86_64__)
-  for (int c = 0; c < D; ++c) {
-    for (int i = 0; i < D; ++i) {
-      double sum = t(i, c);
-      for (int k = 0; k < D; ++k) sum = std::fma(b(i, k), s(k, c), sum);
-      t(i, c) = sum;
+  if constexpr (kFusedScalarKernels<D>) {
+    for (int c = 0; c < D; ++c) {
+      for (int i = 0; i < D; ++i) {
+        double sum = t(i, c);
+        for (int k = 0; k < D; ++k) sum = std::fma(b(i, k), s(k, c), sum);
+        t(i, c) = sum;
+      }
     }
+  } else {
+    t.noalias() += b * s;
   }
-#else
-  t.noalias() += b * s;
-#endif
 }
 
 // b = b l^T for a lower-triangular l (only its lower triangle is read): each entry b(i, j) becomes
 // b(i, 0) l(j, 0), then + b(i, m) l(j, m) for m = 1 .. j, each fused: D (D + 1) / 2 multiply-adds
 // per row where the general product takes D^2 (a factorized column's blocks times L(k,k)^-T).
-// On x86-64 only; elsewhere Eigen's product, as addBlockProduct.
+// On x86-64 for D = 3 only; elsewhere Eigen's product, as addBlockProduct.
 template <int D>
 inline void multiplyByTransposedLower(Eigen::Matrix<double, D, D>& b,
                                       const Eigen::Matrix<double, D, D>& l) {
-#if defined(__x86_64__)
-  const Eigen::Matrix<double, D, D> in = b;
-  for (int j = 0; j < D; ++j) {
-    for (int i = 0; i < D; ++i) {
-      double sum = in(i, 0) * l(j, 0);
-      for (int m = 1; m <= j; ++m) sum = std::fma(in(i, m), l(j, m), sum);
-      b(i, j) = sum;
+  if constexpr (kFusedScalarKernels<D>) {
+    const Eigen::Matrix<double, D, D> in = b;
+    for (int j = 0; j < D; ++j) {
+      for (int i = 0; i < D; ++i) {
+        double sum = in(i, 0) * l(j, 0);
+        for (int m = 1; m <= j; ++m) sum = std::fma(in(i, m), l(j, m), sum);
+        b(i, j) = sum;
+      }
     }
-  }
+  } else {
+#if defined(__x86_64__)
+    b = (b * l.template triangularView<Eigen::Lower>().transpose()).eval();
 #else
-  // On the Cortex-M7 the triangular loop takes more instructions than Eigen's product.
-  b = (b * l.transpose()).eval();
+    // On the Cortex-M7 the triangular loop takes more instructions than Eigen's product (the
+    // factor's l has a zero upper triangle).
+    b = (b * l.transpose()).eval();
 #endif
+  }
 }
 
 // [x_l x_w[0] .. x_w[M-1]] H_0 ... H_{D-1} in place, for the rows of x_l and of each x_w[m] (any
@@ -85,14 +112,14 @@ inline void applyRowReflections(const Eigen::Matrix<double, D, D>* u,
 #pragma GCC unroll 2
       for (int m = 0; m < M; ++m) {
 #pragma GCC unroll 6
-        for (int c = 0; c < D; ++c) t = std::fma(x[m][c], u[m](c, j), t);
+        for (int c = 0; c < D; ++c) t = multiplyAdd<D>(x[m][c], u[m](c, j), t);
       }
       const double s = beta(j) * t;
       l[j] -= s;
 #pragma GCC unroll 2
       for (int m = 0; m < M; ++m) {
 #pragma GCC unroll 6
-        for (int c = 0; c < D; ++c) x[m][c] = std::fma(-s, u[m](c, j), x[m][c]);
+        for (int c = 0; c < D; ++c) x[m][c] = multiplyAdd<D>(-s, u[m](c, j), x[m][c]);
       }
     }
 #pragma GCC unroll 6

@@ -5,7 +5,7 @@
 //
 // Two phases: StaticSmoother holds every array (capacities per kind as template parameters);
 // Smoother<Model> works on pointers and counts and never allocates. It is compiled for Slam2D and
-// Slam3D in smoother.cpp.
+// Slam3D and PoseSlam3D in smoother.cpp.
 //
 // A call that returns anything but Status::Ok has changed no value (the inputs are validated
 // before any change, the factorization stages until it has succeeded).
@@ -92,7 +92,7 @@ class Smoother {
   using Measurement = ModelFactorInput<Model>;
   using Pose = TypeAtT<0, typename Model::Variables>;
   static constexpr int kKinds = Model::Variables::kSize;
-  static_assert(kKinds == 2, "a pose kind and a landmark kind (each with its id map)");
+  static_assert(kKinds == 1 || kKinds == 2, "a pose kind and at most one landmark kind");
 
   // ids: one map per variable kind (kKinds of them). The factor's variable_kind is set here to the
   // graph's kinds.
@@ -161,8 +161,8 @@ class Smoother {
   SolverOptions options_;
   Graph graph_;
   Factor cholesky_;
-  IdMap ids_[kKinds];
-  IdMap* id_maps_[kKinds];
+  IdMap ids_[2];  // per kind (a model of one kind leaves the second empty)
+  IdMap* id_maps_[2];
   // The solution bookkeeping.
   VariableId* id_of_;
   Vector* delta_;
@@ -193,7 +193,7 @@ class SmootherStorage {
       factor_storage_;
   StaticColamdStorage<2 * MaxFactors, MaxFactors, kMaxVariables> ordering_storage_;
   StaticIdMapStorage<MaxPoses> pose_id_storage_;
-  StaticIdMapStorage<MaxLandmarks> landmark_id_storage_;
+  StaticIdMapStorage<(MaxLandmarks > 0 ? MaxLandmarks : 1)> landmark_id_storage_;
   Index position_of_[2][kMaxVariables];
   Index variable_at_[2][kMaxVariables];
   VariableId id_of_[kMaxVariables];

@@ -1,0 +1,56 @@
+#pragma once
+// Feeds a dataset of any model (2D or 3D poses, with or without point landmarks) step by step, in
+// online order (model_steps.h), to the firmware's Smoother<Model> and records what each step cost:
+// the counterpart of incremental_run.h for the models the 2D pose-graph solver does not take.
+//
+// The solver's factors have g2o's errors (factors/se2_factors.h, se3_factors.h). A factor of a
+// dataset in the iSAM convention whose error differs is handed over with its information carried
+// into the solver's error coordinates (solverInformation): exact for SE2 (the errors differ by a
+// rotation of the translation), to first order about the measurement for SE3 (iSAM's Euler
+// angles), so the solver minimises iSAM's objective up to second-order terms in the errors. chi2
+// is always evaluated in the file's own convention (model_chi2.h).
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "host_sim/incremental_run.h"
+#include "host_sim/model_chi2.h"
+#include "host_sim/model_dataset.h"
+
+namespace lslam::sim {
+
+struct ModelRun {
+  ModelEstimate initial;   // each variable's value when it was introduced (the batch starts here)
+  ModelEstimate estimate;  // the solver's final estimate
+  std::vector<StepRecord> steps;
+  double total_seconds = 0.0;  // sum of the steps' time (no file reading, no batch)
+  std::size_t solver_bytes = 0;
+  Index poses = 0;
+  Index landmarks = 0;
+  Index factor_blocks = 0;
+  Index reorders = 0;
+  VariableKey anchor{VariableRole::Pose, -1};  // the pose the solver anchors (id -1: none)
+  std::string gauge_note;  // "file:line: FIX ..." when the file fixes another pose (else empty)
+};
+
+// Runs `d` in online order (options.order must be StepOrder::Online: std::invalid_argument
+// otherwise). The solver anchors the first step's pose; FIX keys as in runIncremental (one other
+// fixed pose is noted in gauge_note, a second fixed pose throws DatasetError at its line; the
+// file's FIX lines carry no line here, so the error names line 0). If the solver rejects a step,
+// throws DatasetError at the line of the step's first factor, naming the step, its pose, the
+// lines of its factors and the solver's status. A dataset beyond the host solver's capacity is
+// such a rejection (Status::CapacityExceeded). Whatever buildModelSteps throws.
+ModelRun runModelIncremental(const ModelDataset& d, const IncrementalOptions& options);
+
+// The information of `f` in the solver's error coordinates: ModelFactor::information itself for
+// the G2o convention and for factors whose error is the same in both conventions; for BetweenSE2
+// and PriorSE2 in the Isam convention J^T Omega J with J = blockdiag(R(z_theta), 1) (exact); for
+// BetweenSE3 and PriorSE3 in the Isam convention J^T Omega J with J the derivative of iSAM's
+// error with respect to g2o's at zero error, by central differences about the measurement.
+Eigen::MatrixXd solverInformation(const ModelDataset& d, const ModelFactor& f);
+
+// Whether `d` is a 2D pose graph (only SE2 poses and BetweenSE2/PriorSE2 factors): the datasets
+// PoseGraphSolver2D runs (incremental_run.h).
+bool isPoseGraph2D(const ModelDataset& d);
+
+}  // namespace lslam::sim

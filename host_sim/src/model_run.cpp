@@ -1,0 +1,387 @@
+#include "host_sim/model_run.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <memory>
+#include <new>
+#include <stdexcept>
+#include <string>
+#include <type_traits>
+
+#include "host_sim/model_steps.h"
+#include "lslam/models/pose_slam_3d.h"
+#include "lslam/models/slam_2d.h"
+#include "lslam/models/slam_3d.h"
+#include "lslam/solver/smoother.h"
+
+namespace lslam::sim {
+
+namespace {
+
+// The host's capacities: enough for every dataset in ../shared/datasets (victoriaPark: 6969 poses,
+// 151 landmarks, 10608 factors; sphere2500: 2500 poses, 4949 factors). A block pool of twice the
+// largest live factor seen on them; block values at the largest block size.
+using HostSmoother2D =
+    StaticSmoother<Slam2D, 16384, 4096, 32768, 32768 * 12, 1 << 20, (1 << 20) * 9>;
+using HostSmoother3D =
+    StaticSmoother<Slam3D, 8192, 4096, 16384, 16384 * 43, 1 << 19, (1 << 19) * 36>;
+// 3D pose graphs (no landmarks) take the one-size model, which has the row update.
+using HostSmootherPoses3D = StaticSmoother<PoseSlam3D, 8192, 0, 16384, 16384 * 43, 1 << 19, 0>;
+
+// Built in memory zeroed beforehand, as the robot's .bss (see incremental_run.cpp): the timed steps
+// do not pay first-touch page faults.
+template <class S>
+struct ZeroedDeleter {
+  void operator()(S* s) const {
+    s->~S();
+    ::operator delete (static_cast<void*>(s), std::align_val_t{alignof(S)});
+  }
+};
+template <class S>
+std::unique_ptr<S, ZeroedDeleter<S>> makeZeroed(const SolverOptions& options) {
+  void* memory = ::operator new (sizeof(S), std::align_val_t{alignof(S)});
+  std::memset(memory, 0, sizeof(S));
+  return std::unique_ptr<S, ZeroedDeleter<S>>(new (memory) S(options));
+}
+
+// ---- Values between the host's parameters and the firmware's types --------------------------
+
+template <class V>
+V toValue(const Eigen::VectorXd& p) {
+  if constexpr (std::is_same_v<V, SE2>) {
+    return SE2(p(0), p(1), p(2));
+  } else if constexpr (std::is_same_v<V, SE3>) {
+    // The solver takes unit quaternions; files print them to 6-9 digits.
+    const Eigen::Quaterniond q = Eigen::Quaterniond(p(6), p(3), p(4), p(5)).normalized();
+    return SE3(SO3(q), p.head<3>());
+  } else {
+    return V(typename V::Vector(p));
+  }
+}
+
+Eigen::VectorXd toParameters(const SE2& x) {
+  return Eigen::Vector3d(x.x(), x.y(), x.theta());
+}
+Eigen::VectorXd toParameters(const SE3& x) {
+  Eigen::VectorXd p(7);
+  const Eigen::Quaterniond& q = x.rotation().quaternion();
+  p << x.translation(), q.x(), q.y(), q.z(), q.w();
+  return p;
+}
+template <int N>
+Eigen::VectorXd toParameters(const Point<N>& l) {
+  return l.vector();
+}
+
+// ---- The host's factor kinds as the model's -------------------------------------------------
+
+// The host's name of each firmware factor kind.
+template <class F>
+struct HostKind;
+template <>
+struct HostKind<PriorSE2Factor> : std::integral_constant<FactorKind, FactorKind::PriorSE2> {};
+template <>
+struct HostKind<BetweenSE2Factor> : std::integral_constant<FactorKind, FactorKind::BetweenSE2> {};
+template <>
+struct HostKind<PriorPoint2Factor> : std::integral_constant<FactorKind, FactorKind::PriorPoint2> {};
+template <>
+struct HostKind<PointObservationSE2Factor>
+    : std::integral_constant<FactorKind, FactorKind::PointXY2> {};
+template <>
+struct HostKind<RangeBearingSE2Factor>
+    : std::integral_constant<FactorKind, FactorKind::RangeBearing2> {};
+template <>
+struct HostKind<PriorSE3Factor> : std::integral_constant<FactorKind, FactorKind::PriorSE3> {};
+template <>
+struct HostKind<BetweenSE3Factor> : std::integral_constant<FactorKind, FactorKind::BetweenSE3> {};
+template <>
+struct HostKind<PriorPoint3Factor> : std::integral_constant<FactorKind, FactorKind::PriorPoint3> {};
+template <>
+struct HostKind<PointObservationSE3Factor>
+    : std::integral_constant<FactorKind, FactorKind::PointXYZ3> {};
+
+// fn(F*) for the factor kind F of the model that the host calls `kind`; std::invalid_argument if
+// the model has none.
+template <class Model, class Fn>
+void visitHostKind(FactorKind kind, Fn&& fn) {
+  bool found = false;
+  for (int k = 0; k < Model::Factors::kSize; ++k) {
+    visitKind<typename Model::Factors>(k, [&](auto* tag) {
+      using F = std::remove_pointer_t<decltype(tag)>;
+      if (HostKind<F>::value != kind) return;
+      found = true;
+      fn(tag);
+    });
+  }
+  if (!found) {
+    throw std::invalid_argument(std::string("a factor the model has not: ") + factorKindName(kind));
+  }
+}
+
+template <class Model>
+ModelFactorInput<Model> toFactorInput(const ModelDataset& d, const ModelFactor& f) {
+  ModelFactorInput<Model> in;
+  visitHostKind<Model>(f.kind, [&](auto* tag) {
+    using F = std::remove_pointer_t<decltype(tag)>;
+    using M = typename F::Measurement;
+    constexpr int kE = F::kErrorDim;
+    M z;
+    if constexpr (std::is_same_v<M, Vec2> || std::is_same_v<M, Vec3>) {
+      z = f.measurement;  // a position in the robot frame, or (range, bearing)
+    } else {
+      z = toValue<M>(f.measurement);
+    }
+    const Eigen::Matrix<double, kE, kE> info = solverInformation(d, f);
+    in = ModelFactorInput<Model>::template make<F>(f.first.id, f.second.id, z, info);
+  });
+  return in;
+}
+
+// ---- Steps -----------------------------------------------------------------------------------
+
+// A step is odometry when its only between factor links the new pose to the pose introduced just
+// before (landmark observations do not change that); a between factor to any other pose makes it
+// a loop closure.
+StepKind classify(const ModelDataset& d, const ModelStep& step, std::int64_t previous_pose) {
+  if (previous_pose < 0) return StepKind::First;
+  for (std::size_t k : step.factors) {
+    const ModelFactor& f = d.factors[k];
+    if (f.kind != FactorKind::BetweenSE2 && f.kind != FactorKind::BetweenSE3) continue;
+    const std::int64_t other = f.first.id == step.new_pose.id ? f.second.id : f.first.id;
+    if (other != previous_pose) return StepKind::LoopClosure;
+  }
+  return StepKind::Odometry;
+}
+
+// The step's rejection as a DatasetError at its first factor's line.
+[[noreturn]] void rejectStep(const ModelDataset& d, const ModelStep& step, std::size_t index,
+                             Status status) {
+  constexpr std::size_t kMaxLines = 10;
+  std::string reason =
+      "step " + std::to_string(index) + " (pose " + std::to_string(step.new_pose.id);
+  if (!step.factors.empty()) {
+    reason += step.factors.size() == 1 ? ", factor at line " : ", factors at lines ";
+    for (std::size_t k = 0; k < step.factors.size() && k < kMaxLines; ++k) {
+      reason += (k == 0 ? "" : ", ") + std::to_string(d.factors[step.factors[k]].line);
+    }
+    if (step.factors.size() > kMaxLines) {
+      reason += ", ... (" + std::to_string(step.factors.size()) + " factors)";
+    }
+  }
+  reason += std::string(") rejected: ") + toString(status);
+  const std::size_t line = step.factors.empty() ? 0 : d.factors[step.factors.front()].line;
+  throw DatasetError(d.name, line, reason);
+}
+
+// One fixed pose only sets the gauge (noted when it is not the solver's anchor); two are an error.
+std::string checkFixed(const ModelDataset& d, const VariableKey& anchor) {
+  const VariableKey* first = nullptr;
+  for (const VariableKey& k : d.fixed) {
+    if (k.role != VariableRole::Pose) continue;
+    if (first == nullptr) {
+      first = &k;
+    } else if (k.id != first->id) {
+      throw DatasetError(d.name, 0,
+                         "FIX " + std::to_string(k.id) + ": a second fixed pose (FIX " +
+                             std::to_string(first->id) +
+                             "); the incremental solver fixes one pose, its first");
+    }
+  }
+  if (first == nullptr || anchor.id < 0 || first->id == anchor.id) return {};
+  return d.name + ": FIX " + std::to_string(first->id) + ": the incremental solver anchors pose " +
+         std::to_string(anchor.id) +
+         " (its first) instead, and so does the batch reference; the optimum is the same up to a "
+         "rigid motion";
+}
+
+template <class Model, class Solver>
+class Runner {
+ public:
+  using Pose = TypeAtT<0, typename Model::Variables>;
+  // A pose-only model's "landmark" is its pose kind, never used.
+  using Landmark = TypeAtT<Model::Variables::kSize - 1, typename Model::Variables>;
+  using Variable = ModelVariableInput<Model>;
+  using Measurement = ModelFactorInput<Model>;
+
+  Runner(const ModelDataset& d, const IncrementalOptions& options) : d_(d), options_(options) {}
+
+  ModelRun run() {
+    const std::vector<ModelStep> steps = buildModelSteps(d_);
+    ModelRun out;
+    if (!steps.empty()) out.anchor = steps.front().new_pose;
+    out.gauge_note = checkFixed(d_, out.anchor);
+    SolverOptions solver_options = options_.solver;
+    solver_options.solve_after_update = false;  // solve() below, every N steps
+    auto solver = makeZeroed<Solver>(solver_options);
+    out.solver_bytes = sizeof(Solver);
+    out.steps.reserve(steps.size());
+
+    // Every step's inputs are converted before the clock starts (the robot has them in hand).
+    std::vector<Measurement> factors;
+    std::vector<Variable> variables;
+    std::int64_t previous_pose = -1;
+    using Clock = std::chrono::steady_clock;
+    for (std::size_t s = 0; s < steps.size(); ++s) {
+      const ModelStep& step = steps[s];
+      variables.clear();
+      introduce(*solver, step, variables, out.initial);
+      factors.clear();
+      for (std::size_t k : step.factors) factors.push_back(toFactorInput<Model>(d_, d_.factors[k]));
+
+      StepRecord record;
+      record.index = s;
+      record.kind = classify(d_, step, previous_pose);
+      const bool solve_now =
+          (s + 1) % static_cast<std::size_t>(options_.solve_every) == 0 || s + 1 == steps.size();
+      const auto t0 = Clock::now();
+      const Status status =
+          solver->update(variables.data(), static_cast<Index>(variables.size()), factors.data(),
+                         static_cast<Index>(factors.size()), &record.result);
+      const auto t_solve = Clock::now();
+      if (status == Status::Ok && solve_now) solver->solve(false, &record.result);
+      const auto t1 = Clock::now();
+      if (status != Status::Ok) rejectStep(d_, step, s, status);
+      record.microseconds = std::chrono::duration<double, std::micro>(t1 - t0).count();
+      record.solve_microseconds = std::chrono::duration<double, std::micro>(t1 - t_solve).count();
+      out.total_seconds += record.microseconds * 1e-6;
+      out.reorders += record.result.reordered ? 1 : 0;
+      out.steps.push_back(record);
+      if (step.new_pose.id >= 0) previous_pose = step.new_pose.id;
+    }
+    for (Index v = 0; v < solver->variables(); ++v) {
+      const bool pose = solver->kindAt(v) == 0;
+      const VariableKey key{pose ? VariableRole::Pose : VariableRole::Landmark, solver->idAt(v)};
+      out.estimate[key] = pose ? toParameters(solver->template estimateAt<Pose>(v))
+                               : toParameters(solver->template estimateAt<Landmark>(v));
+    }
+    out.poses = solver->poses();
+    out.landmarks = solver->landmarks();
+    out.factor_blocks = solver->factorBlocks();
+    return out;
+  }
+
+ private:
+  // The variables the step introduces, with their initial values from the solver's current
+  // estimate of the variables their first factors name (model_steps.h, INITIAL VALUES).
+  void introduce(const Solver& solver, const ModelStep& step, std::vector<Variable>& variables,
+                 ModelEstimate& initial) {
+    ModelEstimate current;
+    for (std::size_t k : step.factors) {
+      const ModelFactor& f = d_.factors[k];
+      for (const VariableKey& key : {f.first, f.second}) {
+        if (arity(f.kind) == 1 && key != f.first) continue;
+        if (current.count(key) != 0) continue;
+        if (key.role == VariableRole::Pose) {
+          Pose x;
+          if (solver.template estimate<Pose>(key.id, &x) == Status::Ok) {
+            current[key] = toParameters(x);
+          }
+        } else {
+          Landmark l;
+          if (solver.template estimate<Landmark>(key.id, &l) == Status::Ok) {
+            current[key] = toParameters(l);
+          }
+        }
+      }
+    }
+    if (step.new_pose.id >= 0) {
+      const Eigen::VectorXd value = initialValue(d_, step, step.new_pose, current);
+      current[step.new_pose] = value;
+      initial[step.new_pose] = value;
+      variables.push_back(Variable::template make<Pose>(step.new_pose.id, toValue<Pose>(value)));
+    }
+    for (const VariableKey& key : step.new_landmarks) {
+      const Eigen::VectorXd value = initialValue(d_, step, key, current);
+      initial[key] = value;
+      variables.push_back(Variable::template make<Landmark>(key.id, toValue<Landmark>(value)));
+    }
+  }
+
+  const ModelDataset& d_;
+  IncrementalOptions options_;
+};
+
+// A 6-vector error of g2o's SE3 convention as the residual pose it measures, (t, q) with the
+// quaternion's vector part v and w = sqrt(1 - |v|^2).
+Vector7d residualPoseSE3(const Vector6d& e) {
+  Vector7d p;
+  const double w = std::sqrt(std::max(0.0, 1.0 - e.tail<3>().squaredNorm()));
+  p << e.head<3>(), e.tail<3>(), w;
+  return p;
+}
+
+Vector7d composeSE3(const Vector7d& a, const Vector7d& b) {
+  const Eigen::Quaterniond qa(a(6), a(3), a(4), a(5)), qb(b(6), b(3), b(4), b(5));
+  const Eigen::Quaterniond q = qa * qb;
+  Vector7d c;
+  c << a.head<3>() + qa * b.head<3>(), q.x(), q.y(), q.z(), q.w();
+  return c;
+}
+
+}  // namespace
+
+bool isPoseGraph2D(const ModelDataset& d) {
+  if (d.dimension != 2) return false;
+  for (const ModelVertex& v : d.vertices) {
+    if (v.kind != VariableKind::SE2) return false;
+  }
+  for (const ModelFactor& f : d.factors) {
+    if (f.kind != FactorKind::BetweenSE2 && f.kind != FactorKind::PriorSE2) return false;
+  }
+  return true;
+}
+
+Eigen::MatrixXd solverInformation(const ModelDataset& d, const ModelFactor& f) {
+  if (d.convention == ObjectiveConvention::G2o) return f.information;
+  switch (f.kind) {
+    case FactorKind::BetweenSE2:
+    case FactorKind::PriorSE2: {
+      // iSAM's translation error is R(z_theta) times g2o's; the angle is the same.
+      Eigen::Matrix3d J = Eigen::Matrix3d::Identity();
+      J.topLeftCorner<2, 2>() = Eigen::Rotation2Dd(f.measurement(2)).toRotationMatrix();
+      return J.transpose() * f.information * J;
+    }
+    case FactorKind::BetweenSE3:
+    case FactorKind::PriorSE3: {
+      // iSAM's error of the residual pose z * D(e) (zero at e = 0) as a function of g2o's error e.
+      const Vector7d z = f.measurement;
+      const Vector7d identity = (Vector7d() << 0, 0, 0, 0, 0, 0, 1).finished();
+      auto isamError = [&](const Vector6d& e) -> Vector6d {
+        const Vector7d x = composeSE3(z, residualPoseSE3(e));
+        return f.kind == FactorKind::BetweenSE3 ? errorBetweenSE3Isam(identity, x, z)
+                                                : errorPriorSE3Isam(x, z);
+      };
+      // Central differences: the error is smooth about zero (angles far from their wraps).
+      constexpr double kStep = 1e-6;
+      Eigen::Matrix<double, 6, 6> J;
+      for (int k = 0; k < 6; ++k) {
+        Vector6d plus = Vector6d::Zero(), minus = Vector6d::Zero();
+        plus(k) = kStep;
+        minus(k) = -kStep;
+        J.col(k) = (isamError(plus) - isamError(minus)) / (2.0 * kStep);
+      }
+      const Eigen::MatrixXd info = J.transpose() * f.information * J;
+      return 0.5 * (info + info.transpose());
+    }
+    default:
+      return f.information;  // landmark errors are the same in both conventions
+  }
+}
+
+ModelRun runModelIncremental(const ModelDataset& d, const IncrementalOptions& options) {
+  if (options.order != StepOrder::Online) {
+    throw std::invalid_argument("datasets with 3D poses or landmarks run in online order only");
+  }
+  if (d.dimension == 3) {
+    for (const ModelFactor& f : d.factors) {
+      if (f.first.role == VariableRole::Landmark || f.second.role == VariableRole::Landmark) {
+        return Runner<Slam3D, HostSmoother3D>(d, options).run();
+      }
+    }
+    return Runner<PoseSlam3D, HostSmootherPoses3D>(d, options).run();
+  }
+  return Runner<Slam2D, HostSmoother2D>(d, options).run();
+}
+
+}  // namespace lslam::sim
