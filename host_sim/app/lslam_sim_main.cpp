@@ -36,6 +36,7 @@ int usage() {
                "                 [--csv STEPS.csv] [--out ESTIMATE.g2o] [--report REPORT.json]\n"
                "                 [--relinearize-threshold T] [--relinearize-skip N]\n"
                "                 [--relinearize-urgent T] [--relinearize-partial T]\n"
+               "                 [--urgent-iterations N]\n"
                "                 [--backsub-tolerance T]\n"
                "                 [--reorder-growth G] [--reorder-excess R]\n"
                "                 [--reorder-path COLUMNS] [--reorder-burst LOOP_CLOSURES]\n"
@@ -295,12 +296,16 @@ int runPoseGraph2D(const RunArgs& args) {
   return report(args, r);
 }
 
-int run(const RunArgs& args) {
+int run(const std::vector<std::string>& argv, const RunArgs& args) {
   // Every format reads as a model dataset; 2D pose graphs run on PoseGraphSolver2D (read again by
-  // its own reader), the rest on Smoother<Model>.
+  // its own reader), the rest on Smoother<Model>, whose options start from the model's defaults
+  // (the command line, already checked, parsed again over them).
   const ModelDataset model = readModelDataset(args.dataset);
   if (isPoseGraph2D(model)) return runPoseGraph2D(args);
-  return runModel(args, model);
+  RunArgs model_args;
+  model_args.solver = defaultModelOptions(model);
+  if (const auto error = parseRunArgs(argv, model_args)) return usageError(*error);
+  return runModel(model_args, model);
 }
 
 int generate(const GenerateArgs& args) {
@@ -321,7 +326,7 @@ int main(int argc, char** argv) {
     if (command == "run") {
       RunArgs args;
       if (const auto error = parseRunArgs(rest, args)) return usageError(*error);
-      return run(args);
+      return run(rest, args);
     }
     if (command == "generate") {
       GenerateArgs args;

@@ -196,6 +196,7 @@ std::optional<std::string> parseRunArgs(const std::vector<std::string>& argv, Ru
       real("--reorder-refresh", so.reorder_refresh_growth),
       real("--relinearize-full-cost", so.relinearize_full_cost_ratio),
       integer("--relinearize-skip", so.relinearize_skip, 0, "an integer in 0..2147483647"),
+      integer("--urgent-iterations", so.urgent_iterations, 0, "an integer in 0..2147483647"),
       integer("--reorder-path", so.reorder_path_columns, 0, "an integer in 0..2147483647"),
       integer("--reorder-burst", so.reorder_burst_loop_closures, 0, "an integer in 0..2147483647"),
   };

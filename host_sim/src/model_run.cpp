@@ -369,19 +369,40 @@ Eigen::MatrixXd solverInformation(const ModelDataset& d, const ModelFactor& f) {
   }
 }
 
+namespace {
+
+// fn(Model*, Solver*) for the model and host solver of `d`: a 3D dataset without landmarks runs on
+// the one-size PoseSlam3D.
+template <class Fn>
+auto withModelOf(const ModelDataset& d, Fn&& fn) {
+  if (d.dimension == 3) {
+    for (const ModelFactor& f : d.factors) {
+      if (f.first.role == VariableRole::Landmark || f.second.role == VariableRole::Landmark) {
+        return fn(static_cast<Slam3D*>(nullptr), static_cast<HostSmoother3D*>(nullptr));
+      }
+    }
+    return fn(static_cast<PoseSlam3D*>(nullptr), static_cast<HostSmootherPoses3D*>(nullptr));
+  }
+  return fn(static_cast<Slam2D*>(nullptr), static_cast<HostSmoother2D*>(nullptr));
+}
+
+}  // namespace
+
 ModelRun runModelIncremental(const ModelDataset& d, const IncrementalOptions& options) {
   if (options.order != StepOrder::Online) {
     throw std::invalid_argument("datasets with 3D poses or landmarks run in online order only");
   }
-  if (d.dimension == 3) {
-    for (const ModelFactor& f : d.factors) {
-      if (f.first.role == VariableRole::Landmark || f.second.role == VariableRole::Landmark) {
-        return Runner<Slam3D, HostSmoother3D>(d, options).run();
-      }
-    }
-    return Runner<PoseSlam3D, HostSmootherPoses3D>(d, options).run();
-  }
-  return Runner<Slam2D, HostSmoother2D>(d, options).run();
+  return withModelOf(d, [&](auto* model, auto* solver) {
+    using Model = std::remove_pointer_t<decltype(model)>;
+    using Solver = std::remove_pointer_t<decltype(solver)>;
+    return Runner<Model, Solver>(d, options).run();
+  });
+}
+
+SolverOptions defaultModelOptions(const ModelDataset& d) {
+  return withModelOf(d, [](auto* model, auto*) {
+    return defaultSolverOptions<std::remove_pointer_t<decltype(model)>>();
+  });
 }
 
 }  // namespace lslam::sim

@@ -423,6 +423,39 @@ TEST_CASE(
   }
 }
 
+// urgent_iterations: with every bar near zero, each update iterates Gauss-Newton within itself,
+// so the estimate after the last update, with no optimize(), is the batch optimum already.
+template <class Model, class S>
+void checkConvergedOnline(const Stream<Model>& stream, S& smoother) {
+  int iterated = 0;
+  for (const Step<Model>& st : stream.steps) {
+    lslam::UpdateResult r;
+    REQUIRE(smoother.update(st.variables.data(), static_cast<Index>(st.variables.size()),
+                            st.factors.data(), static_cast<Index>(st.factors.size()),
+                            &r) == Status::Ok);
+    iterated += r.iterations > 0 ? 1 : 0;
+  }
+  const sim::ModelBatchResult reference = batch(stream.dataset, stream.initial);
+  REQUIRE(reference.converged);
+  MESSAGE(iterated << " of " << stream.steps.size() << " updates iterated; chi2 " << smoother.chi2()
+                   << ", batch " << reference.chi2);
+  CHECK(iterated > 0);
+  CHECK(std::abs(smoother.chi2() - reference.chi2) <= 1e-6 * reference.chi2);
+}
+
+TEST_CASE("urgent_iterations: every update converged within itself (2D landmarks, 3D poses)") {
+  lslam::SolverOptions options;
+  options.relinearize_threshold = 1e-9;
+  options.relinearize_urgent_threshold = 1e-9;
+  options.relinearize_partial_threshold = 0.0;
+  options.backsubstitution_tolerance = 0.0;
+  options.urgent_iterations = 30;
+  auto smoother2 = std::make_unique<Smoother2D>(options);
+  checkConvergedOnline(stream2D(21, 60, 20), *smoother2);
+  auto smoother3 = std::make_unique<SmootherPoses3D>(options);
+  checkConvergedOnline(stream3D<PoseSlam3D>(23, 80, 0), *smoother3);
+}
+
 // ---- Rejections ---------------------------------------------------------------------------------
 
 // Each rejected call changes no bit, and the valid step after it gives the bits a twin fed only

@@ -184,11 +184,42 @@ Status Smoother<Model>::refactor(Index new_variables, const UpdatePlan& plan, bo
 
 template <class Model>
 void Smoother<Model>::solve(bool full, UpdateResult* result) {
+  backSubstitute(full, result);
+  for (Index i = 0; i < options_.urgent_iterations && relinearization_.urgent(); ++i) {
+    UpdateResult step;
+    // A failed pass changed nothing: the solution stands, the candidates wait.
+    if (relinearizeCandidates(step) != Status::Ok) break;
+    backSubstitute(full, result);
+    if (result == nullptr) continue;
+    result->iterations = i + 1;
+    result->variables_relinearized += step.variables_relinearized;
+    result->columns_refactored += step.columns_refactored;
+    result->block_products += step.block_products;
+    result->reordered = result->reordered || step.reordered;
+    result->refactored_fully = result->refactored_fully || step.refactored_fully;
+    result->factor_blocks = step.factor_blocks;
+  }
+}
+
+template <class Model>
+void Smoother<Model>::backSubstitute(bool full, UpdateResult* result) {
   const bool exact = full || !options_.partial_backsubstitution;
   const Index visited = cholesky_.backSubstitute(
       delta_, variableAt(), options_.backsubstitution_tolerance, exact, visited_);
   relinearization_.noteCandidates(visited_, visited, variableAt());
   if (result != nullptr) result->variables_solved = visited;
+}
+
+template <class Model>
+Status Smoother<Model>::relinearizeCandidates(UpdateResult& result) {
+  graph_.beginUpdate();
+  driver_.beginStaging();
+  const UpdatePlan plan = planUpdate(0, false);
+  const Status s = refactor(0, plan, true, result);
+  if (s != Status::Ok) return s;
+  relinearization_.noteUpdate(plan.relinearize_now, delta_);
+  if (plan.prepare_ordering) result.ordering_prepared = ordering_.prepareOrdering();
+  return Status::Ok;
 }
 
 template <class Model>

@@ -49,6 +49,10 @@ ModelRun runModelIncremental(const ModelDataset& d, const IncrementalOptions& op
 // error with respect to g2o's at zero error, by central differences about the measurement.
 Eigen::MatrixXd solverInformation(const ModelDataset& d, const ModelFactor& f);
 
+// The solver options the model `d` runs on start from (lslam::defaultSolverOptions of the model
+// runModelIncremental picks: Slam2D, Slam3D or PoseSlam3D).
+SolverOptions defaultModelOptions(const ModelDataset& d);
+
 // Whether `d` is a 2D pose graph (only SE2 poses and BetweenSE2/PriorSE2 factors): the datasets
 // PoseGraphSolver2D runs (incremental_run.h).
 bool isPoseGraph2D(const ModelDataset& d);

@@ -54,6 +54,8 @@ class RelinearizationPolicy {
   const Index* staged() const { return a_.staged; }
   // Whether the candidates are due at this update (urgent, a reordering, or relinearize_skip).
   bool due(bool reorder_now) const;
+  // Whether a waiting candidate passed the urgent bar.
+  bool urgent() const { return urgent_; }
   // Whether the partial bar leaves candidates waiting that a full refactorization takes along.
   bool partialLeavesWaiting() const;
   // Stages the candidates in `range` (their points moved to lin (+) delta) and lists them in

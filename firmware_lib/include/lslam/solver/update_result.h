@@ -23,7 +23,7 @@ struct UpdateResult {
   bool reordered_for_room = false;  // the update did not fit in its order and ran in a fresh one
   bool laid_out = false;            // the last full refactorization's layout was done here
   Index factor_blocks = 0;          // nonzero blocks of L after the call
-  Index iterations = 0;             // optimize(): Gauss-Newton iterations done
+  Index iterations = 0;  // optimize(): Gauss-Newton iterations; solve(): urgent iterations
 };
 
 }  // namespace lslam
