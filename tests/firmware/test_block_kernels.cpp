@@ -1,8 +1,8 @@
 // The block kernels (lslam/linear/block_kernels.h): the portable forms against dense Eigen
 // references (the block product, and the reflections of one and of two factors' rows as explicit
 // matrices), and the AVX forms (single and several source columns, reflections of one and of two
-// factors, in place and from a source) bit for bit against the portable forms, on many random
-// cases from a fixed seed.
+// factors, in place and from a source, the back-substitution's column step; at D = 3 and D = 6)
+// bit for bit against the portable forms, on many random cases from a fixed seed.
 #include <doctest/doctest.h>
 
 #include <Eigen/Dense>
@@ -83,8 +83,9 @@ void checkPortableForms(int cases) {
   }
 }
 
-bool sameBits(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
-  return std::equal(a.data(), a.data() + 9, b.data());
+template <int D>
+bool sameBits(const Eigen::Matrix<double, D, D>& a, const Eigen::Matrix<double, D, D>& b) {
+  return std::equal(a.data(), a.data() + D * D, b.data());
 }
 
 }  // namespace
@@ -112,50 +113,80 @@ void checkMultiplyByTransposedLower(int cases) {
   }
 }
 
+// The AVX form against the portable one, bit for bit, over a column of blocks.
+template <int D>
+void checkMultiplyByTransposedLowerAvx(int cases) {
+  using Block = Eigen::Matrix<double, D, D>;
+  std::mt19937 rng(37 + D);
+  std::uniform_int_distribution<int> size_of(1, 20);
+  for (int n = 0; n < cases; ++n) {
+    std::vector<Block> blocks(static_cast<std::size_t>(size_of(rng)));
+    for (auto& b : blocks) b = randomBlock<D>(rng);
+    const Block l = randomBlock<D>(rng);
+    const Block lower = l.template triangularView<Eigen::Lower>();
+    std::vector<Block> avx = blocks;
+    lslam::detail::multiplyByTransposedLowerAvx(avx.data(), static_cast<Index>(avx.size()), l);
+    for (std::size_t i = 0; i < blocks.size(); ++i) {
+      const Block expected = blocks[i] * lower.transpose();
+      lslam::detail::multiplyByTransposedLower<D>(blocks[i], l);
+      CHECK(sameBits<D>(avx[i], blocks[i]));
+      CHECK((avx[i] - expected).cwiseAbs().maxCoeff() < 1e-12);
+    }
+  }
+}
+
 }  // namespace
 
 TEST_CASE("a block times a lower-triangular block's transpose matches the dense product") {
   checkMultiplyByTransposedLower<2>(300);
   checkMultiplyByTransposedLower<3>(300);
   checkMultiplyByTransposedLower<6>(300);
-  if (!lslam::detail::cpuHasAvxFma()) return;
-  // The AVX form against the portable one, bit for bit, over a column of blocks.
-  std::mt19937 rng(37);
-  std::uniform_int_distribution<int> size_of(1, 20);
-  for (int n = 0; n < 300; ++n) {
-    std::vector<Eigen::Matrix3d> blocks(static_cast<std::size_t>(size_of(rng)));
-    for (auto& b : blocks) b = randomBlock<3>(rng);
-    const Eigen::Matrix3d l = randomBlock<3>(rng);
-    std::vector<Eigen::Matrix3d> avx = blocks;
-    lslam::detail::multiplyByTransposedLowerAvx(avx.data(), static_cast<Index>(avx.size()), l);
-    for (std::size_t i = 0; i < blocks.size(); ++i) {
-      lslam::detail::multiplyByTransposedLower<3>(blocks[i], l);
-      CHECK(sameBits(avx[i], blocks[i]));
-    }
+  if (!lslam::detail::cpuHasAvxFma()) {
+    MESSAGE("skipped the AVX forms: this CPU has no AVX2/FMA");
+    return;
   }
+  checkMultiplyByTransposedLowerAvx<3>(300);
+#if defined(__x86_64__)
+  checkMultiplyByTransposedLowerAvx<6>(300);
+#endif
 }
 
-TEST_CASE("the fused back-substitution step matches the dense transposed products") {
-  std::mt19937 rng(23);
+namespace {
+
+// L(k,k)^-T x in the portable form's order: Eigen's product at D = 3, multiplyTransposed at 6.
+template <int D>
+Eigen::Matrix<double, D, 1> transposedInverseTimes(const Eigen::Matrix<double, D, D>& inverse,
+                                                   const Eigen::Matrix<double, D, 1>& x) {
+#if defined(__x86_64__)
+  if constexpr (D == 6) return lslam::detail::multiplyTransposed(inverse, x);
+#endif
+  return inverse.transpose() * x;
+}
+
+template <int D>
+void checkBackSubstitution(int cases) {
+  using Block = Eigen::Matrix<double, D, D>;
+  using Vector = Eigen::Matrix<double, D, 1>;
+  std::mt19937 rng(23 + (D == 3 ? 0 : D));
   std::uniform_int_distribution<int> size_of(1, 30);
-  for (int n = 0; n < 300; ++n) {
+  for (int n = 0; n < cases; ++n) {
     const Index size = size_of(rng);
-    std::vector<Eigen::Matrix3d> blocks(size);
-    for (auto& b : blocks) b = randomBlock<3>(rng);
-    // The solutions by position, kSolutionStride doubles each (the fourth zero, as the solve keeps
-    // it), the rows spread over them out of order.
-    constexpr Index kStride = lslam::detail::kSolutionStride<3>;
+    std::vector<Block> blocks(size);
+    for (auto& b : blocks) b = randomBlock<D>(rng);
+    // The solutions by position, kSolutionStride doubles each (any padding zero, as the solve
+    // keeps it), the rows spread over them out of order.
+    constexpr Index kStride = lslam::detail::kSolutionStride<D>;
     const Index positions = size + 5;
     std::vector<double> solution(static_cast<std::size_t>(kStride * positions), 0.0);
-    std::vector<Eigen::Vector3d> y(positions);
+    std::vector<Vector> y(positions);
     for (Index p = 0; p < positions; ++p) {
-      y[p] = randomBlock<3>(rng).col(1);
-      for (int r = 0; r < 3; ++r) solution[kStride * p + r] = y[p](r);
+      y[p] = randomBlock<D>(rng).col(1);
+      for (int r = 0; r < D; ++r) solution[kStride * p + r] = y[p](r);
     }
     std::vector<Index> rows(size);
     for (Index i = 0; i < size; ++i) rows[i] = (i * 3 + 1 + n % 5) % positions;
-    Eigen::Vector3d expected = randomBlock<3>(rng).col(2);
-    Eigen::Vector3d x = expected;
+    Vector expected = randomBlock<D>(rng).col(2);
+    Vector x = expected;
     for (Index i = 1; i < size; ++i) expected -= blocks[i].transpose() * y[rows[i]];
     lslam::detail::subtractTransposedProductsFused(x, blocks.data(), rows.data(), size,
                                                    solution.data());
@@ -163,30 +194,36 @@ TEST_CASE("the fused back-substitution step matches the dense transposed product
     if (lslam::detail::cpuHasAvxFma()) {
       // The whole column step: the AVX kernel against the portable one, bit for bit, from an old
       // entry that moved by more than the tolerance in one coordinate, and from one that did not.
-      const Eigen::Vector3d d = randomBlock<3>(rng).col(0);
-      Eigen::Vector3d portable = d;
+      const Vector d = randomBlock<D>(rng).col(0);
+      Vector portable = d;
       lslam::detail::subtractTransposedProductsFused(portable, blocks.data(), rows.data(), size,
                                                      solution.data());
-      portable = (blocks[0].transpose() * portable).eval();
+      portable = transposedInverseTimes<D>(blocks[0], portable);
+      Vector dense = d;
+      for (Index i = 1; i < size; ++i) dense -= blocks[i].transpose() * y[rows[i]];
+      dense = (blocks[0].transpose() * dense).eval();
+      CHECK((portable - dense).cwiseAbs().maxCoeff() < 1e-11 * (1.0 + dense.cwiseAbs().maxCoeff()));
       // The column's own entry, after every entry its rows read.
       const Index k = positions;
       std::vector<double> with_own = solution;
       with_own.resize(static_cast<std::size_t>(kStride * (positions + 1)), 0.0);
       for (const double shift : {0.1, -0.5}) {  // within the tolerance 0.3, and past it
         std::vector<double> avx_solution = with_own;
-        Eigen::Vector3d old = portable;
-        old(n % 3) += shift;
-        for (int r = 0; r < 3; ++r) avx_solution[kStride * k + r] = old(r);
+        Vector old = portable;
+        old(n % D) += shift;
+        for (int r = 0; r < D; ++r) avx_solution[kStride * k + r] = old(r);
         const bool portable_moved = (portable - old).cwiseAbs().maxCoeff() > 0.3;
-        Eigen::Vector3d delta = Eigen::Vector3d::Constant(7.0);
+        Vector delta = Vector::Constant(7.0);
         const bool moved = lslam::detail::solveColumnAvx(d, blocks.data(), rows.data(), size,
                                                          avx_solution.data(), k, 0.3, delta);
         CHECK(portable_moved == (shift < 0.0));
         CHECK(moved == portable_moved);
-        CHECK(std::equal(delta.data(), delta.data() + 3, portable.data()));
-        CHECK(std::equal(avx_solution.data() + kStride * k, avx_solution.data() + kStride * k + 3,
+        CHECK(std::equal(delta.data(), delta.data() + D, portable.data()));
+        CHECK(std::equal(avx_solution.data() + kStride * k, avx_solution.data() + kStride * k + D,
                          portable.data()));
-        CHECK(avx_solution[kStride * k + 3] == 0.0);  // the padding stays zero
+        for (Index r = D; r < kStride; ++r) {
+          CHECK(avx_solution[kStride * k + r] == 0.0);  // the padding stays zero
+        }
         // Every other entry is untouched.
         for (Index p = 0; p < positions; ++p) {
           CHECK(std::equal(avx_solution.data() + kStride * p,
@@ -197,49 +234,62 @@ TEST_CASE("the fused back-substitution step matches the dense transposed product
   }
 }
 
+}  // namespace
+
+TEST_CASE("the fused back-substitution step matches the dense transposed products") {
+  checkBackSubstitution<3>(300);
+#if defined(__x86_64__)
+  checkBackSubstitution<6>(300);
+#endif
+  if (!lslam::detail::cpuHasAvxFma()) MESSAGE("skipped the AVX forms: this CPU has no AVX2/FMA");
+}
+
 namespace {
 
 // The AVX reflections of M factors' rows against the portable form, bit for bit: on a column's row
 // blocks in place, with W kept per row as in the row update, and read from elsewhere (the row
 // update's merge: each row block comes from a source block, or is zero for fill).
-template <int M>
+template <int D, int M>
 void checkAvxReflections(std::mt19937& rng, const std::vector<Index>& rows,
-                         std::vector<Eigen::Matrix3d> blocks, std::size_t num_rows, int n) {
+                         std::vector<Eigen::Matrix<double, D, D>> blocks, std::size_t num_rows,
+                         int n) {
+  using Block = Eigen::Matrix<double, D, D>;
+  using Vector = Eigen::Matrix<double, D, 1>;
   std::bernoulli_distribution keep(0.6);
   const Index size = static_cast<Index>(rows.size());
-  Eigen::Matrix3d u[M];
-  for (auto& block : u) block = randomBlock<3>(rng);
-  const Eigen::Vector3d beta = randomBlock<3>(rng).col(0).cwiseAbs();
-  std::vector<Eigen::Matrix3d> w[M];
+  Block u[M];
+  for (auto& block : u) block = randomBlock<D>(rng);
+  const Vector beta = randomBlock<D>(rng).col(0).cwiseAbs();
+  std::vector<Block> w[M];
   for (auto& array : w) {
     array.resize(num_rows);
-    for (auto& x : array) x = randomBlock<3>(rng);
+    for (auto& x : array) x = randomBlock<D>(rng);
   }
-  auto reflect_expected = [&](std::vector<Eigen::Matrix3d>& l, std::vector<Eigen::Matrix3d>* x) {
+  auto reflect_expected = [&](std::vector<Block>& l, std::vector<Block>* x) {
     for (Index b = 1; b < size; ++b) {
-      Eigen::Matrix3d* x_of[M];
+      Block* x_of[M];
       for (int m = 0; m < M; ++m) x_of[m] = &x[m][rows[b]];
-      lslam::detail::applyRowReflections<3, M>(u, beta, l[b], x_of);
+      lslam::detail::applyRowReflections<D, M>(u, beta, l[b], x_of);
     }
   };
-  auto arrays = [](std::vector<Eigen::Matrix3d>* x, Eigen::Matrix3d** of) {
+  auto arrays = [](std::vector<Block>* x, Block** of) {
     for (int m = 0; m < M; ++m) of[m] = x[m].data();
   };
-  std::vector<Eigen::Matrix3d> blocks_expected = blocks;
-  std::vector<Eigen::Matrix3d> w_expected[M];
+  std::vector<Block> blocks_expected = blocks;
+  std::vector<Block> w_expected[M];
   for (int m = 0; m < M; ++m) w_expected[m] = w[m];
   reflect_expected(blocks_expected, w_expected);
-  Eigen::Matrix3d* w_of[M];
+  Block* w_of[M];
   arrays(w, w_of);
   lslam::detail::applyRowReflectionsFromAvx<M>(u, beta, blocks.data(), nullptr, size, blocks.data(),
                                                rows.data(), size, w_of);
-  for (std::size_t b = 0; b < blocks.size(); ++b) CHECK(sameBits(blocks[b], blocks_expected[b]));
+  for (std::size_t b = 0; b < blocks.size(); ++b) CHECK(sameBits<D>(blocks[b], blocks_expected[b]));
   for (int m = 0; m < M; ++m) {
-    for (std::size_t r = 0; r < num_rows; ++r) CHECK(sameBits(w[m][r], w_expected[m][r]));
+    for (std::size_t r = 0; r < num_rows; ++r) CHECK(sameBits<D>(w[m][r], w_expected[m][r]));
   }
 
-  std::vector<Eigen::Matrix3d> sources(rows.size());
-  for (auto& b : sources) b = randomBlock<3>(rng);
+  std::vector<Block> sources(rows.size());
+  for (auto& b : sources) b = randomBlock<D>(rng);
   std::vector<Index> source(rows.size(), lslam::kNoIndex);
   for (Index b = 1; b < size; ++b) {
     if (keep(rng)) source[b] = static_cast<Index>((b * 7 + n) % size);
@@ -247,31 +297,30 @@ void checkAvxReflections(std::mt19937& rng, const std::vector<Index>& rows,
   // The first `kept` rows are the old column's, in place (their source implied, not read).
   const Index kept = 1 + static_cast<Index>(n) % size;
   for (Index b = 1; b < kept; ++b) source[b] = (b * 5 + n) % size;
-  std::vector<Eigen::Matrix3d> staged(rows.size(), randomBlock<3>(rng));
-  std::vector<Eigen::Matrix3d> staged_expected = staged;
+  std::vector<Block> staged(rows.size(), randomBlock<D>(rng));
+  std::vector<Block> staged_expected = staged;
   for (Index b = 1; b < size; ++b) {
     if (b < kept) {
       staged_expected[b] = sources[b];
     } else {
-      staged_expected[b] =
-          source[b] == lslam::kNoIndex ? Eigen::Matrix3d::Zero() : sources[source[b]];
+      staged_expected[b] = source[b] == lslam::kNoIndex ? Block::Zero() : sources[source[b]];
     }
   }
   reflect_expected(staged_expected, w_expected);
   lslam::detail::applyRowReflectionsFromAvx<M>(u, beta, sources.data(), source.data(), kept,
                                                staged.data(), rows.data(), size, w_of);
-  for (std::size_t b = 0; b < staged.size(); ++b) CHECK(sameBits(staged[b], staged_expected[b]));
+  for (std::size_t b = 0; b < staged.size(); ++b) CHECK(sameBits<D>(staged[b], staged_expected[b]));
   for (int m = 0; m < M; ++m) {
-    for (std::size_t r = 0; r < num_rows; ++r) CHECK(sameBits(w[m][r], w_expected[m][r]));
+    for (std::size_t r = 0; r < num_rows; ++r) CHECK(sameBits<D>(w[m][r], w_expected[m][r]));
   }
 
   // The right-hand side's row, through the AVX-compiled instance of the portable form.
-  using Row = Eigen::Matrix<double, 1, 3>;
-  Row d = randomBlock<3>(rng).row(0);
+  using Row = Eigen::Matrix<double, 1, D>;
+  Row d = randomBlock<D>(rng).row(0);
   Row b_rows[M];
   Row* b_of[M];
   for (int m = 0; m < M; ++m) {
-    b_rows[m] = randomBlock<3>(rng).row(1);
+    b_rows[m] = randomBlock<D>(rng).row(1);
     b_of[m] = &b_rows[m];
   }
   Row d_expected = d;
@@ -281,21 +330,47 @@ void checkAvxReflections(std::mt19937& rng, const std::vector<Index>& rows,
     b_expected[m] = b_rows[m];
     b_expected_of[m] = &b_expected[m];
   }
-  lslam::detail::applyRowReflections<3, M>(u, beta, d_expected, b_expected_of);
+  lslam::detail::applyRowReflections<D, M>(u, beta, d_expected, b_expected_of);
   lslam::detail::applyRowReflectionsToRowAvx<M>(u, beta, d, b_of);
-  CHECK(std::equal(d.data(), d.data() + 3, d_expected.data()));
+  CHECK(std::equal(d.data(), d.data() + D, d_expected.data()));
   for (int m = 0; m < M; ++m)
-    CHECK(std::equal(b_rows[m].data(), b_rows[m].data() + 3, b_expected[m].data()));
+    CHECK(std::equal(b_rows[m].data(), b_rows[m].data() + D, b_expected[m].data()));
 }
 
-}  // namespace
-
-TEST_CASE("the AVX block kernels compute the portable forms' bits") {
-  if (!lslam::detail::cpuHasAvxFma()) {
-    MESSAGE("skipped: this CPU has no AVX2/FMA (the portable forms run everywhere)");
-    return;
+// Several source columns at once (a supernode, D = 3 only): each target block takes their
+// products in column order, each column's multiplier its own block at `first` (negated,
+// transposed), as the same number of single-column passes with that multiplier would give it.
+void checkSupernodeProducts(std::mt19937& rng, const std::vector<Index>& rows,
+                            const std::vector<Index>& target_rows, Index first, Index size, int n,
+                            std::vector<Eigen::Matrix3d>& target) {
+  const Index width = 1 + n % 8;
+  std::vector<std::vector<Eigen::Matrix3d>> columns(width,
+                                                    std::vector<Eigen::Matrix3d>(rows.size()));
+  std::vector<const Eigen::Matrix3d*> column_of(width);
+  for (Index m = 0; m < width; ++m) {
+    for (auto& b : columns[m]) b = randomBlock<3>(rng);
+    column_of[m] = columns[m].data();
   }
-  std::mt19937 rng(5);
+  std::vector<Eigen::Matrix3d> multi_expected = target;
+  for (Index m = 0; m < width; ++m) {
+    const Eigen::Matrix3d s_m = -columns[m][first].transpose();
+    for (Index b = first; b < size; ++b) {
+      const Index p = static_cast<Index>(
+          std::lower_bound(target_rows.begin(), target_rows.end(), rows[b]) - target_rows.begin());
+      lslam::detail::addBlockProduct<3>(multi_expected[p], columns[m][b], s_m);
+    }
+  }
+  lslam::detail::subtractOuterProductsOfColumnsAvx(column_of.data(), width, rows.data(), first,
+                                                   size, target_rows.data(), target.data());
+  for (std::size_t p = 0; p < target.size(); ++p) CHECK(sameBits<3>(target[p], multi_expected[p]));
+}
+
+// The AVX block products (one source column, and at D = 3 several) and reflections against the
+// portable forms, bit for bit, and the block products against the dense product.
+template <int D>
+void checkAvxKernels() {
+  using Block = Eigen::Matrix<double, D, D>;
+  std::mt19937 rng(D == 3 ? 5 : 5 + D);
   std::uniform_int_distribution<int> size_of(2, 40);
   std::bernoulli_distribution keep(0.6);
   for (int n = 0; n < 200; ++n) {
@@ -307,49 +382,44 @@ TEST_CASE("the AVX block kernels compute the portable forms' bits") {
       target_rows.push_back(r);
       if (keep(rng)) rows.push_back(r);
     }
-    std::vector<Eigen::Matrix3d> blocks(rows.size());
-    for (auto& b : blocks) b = randomBlock<3>(rng);
-    std::vector<Eigen::Matrix3d> target(target_rows.size());
-    for (auto& t : target) t = randomBlock<3>(rng);
-    const Eigen::Matrix3d s = randomBlock<3>(rng);
+    std::vector<Block> blocks(rows.size());
+    for (auto& b : blocks) b = randomBlock<D>(rng);
+    std::vector<Block> target(target_rows.size());
+    for (auto& t : target) t = randomBlock<D>(rng);
+    const Block s = randomBlock<D>(rng);
     const Index first = std::min<Index>(n % 4, size - 1);  // 0: from the diagonal block
 
-    std::vector<Eigen::Matrix3d> expected = target;
+    const std::vector<Block> original = target;
+    std::vector<Block> expected = target;
     for (Index b = first; b < size; ++b) {
       const Index p = static_cast<Index>(
           std::lower_bound(target_rows.begin(), target_rows.end(), rows[b]) - target_rows.begin());
-      lslam::detail::addBlockProduct<3>(expected[p], blocks[b], s);
+      lslam::detail::addBlockProduct<D>(expected[p], blocks[b], s);
     }
     lslam::detail::addBlockProductsAvx(blocks.data(), rows.data(), first, size, s,
                                        target_rows.data(), target.data());
-    for (std::size_t p = 0; p < target.size(); ++p) CHECK(sameBits(target[p], expected[p]));
-
-    // Several source columns at once (a supernode): each target block takes their products in
-    // column order, each column's multiplier its own block at `first` (negated, transposed), as
-    // the same number of single-column passes with that multiplier would give it.
-    const Index width = 1 + n % 8;
-    std::vector<std::vector<Eigen::Matrix3d>> columns(width,
-                                                      std::vector<Eigen::Matrix3d>(rows.size()));
-    std::vector<const Eigen::Matrix3d*> column_of(width);
-    for (Index m = 0; m < width; ++m) {
-      for (auto& b : columns[m]) b = randomBlock<3>(rng);
-      column_of[m] = columns[m].data();
+    for (std::size_t p = 0; p < target.size(); ++p) CHECK(sameBits<D>(target[p], expected[p]));
+    for (Index b = first; b < size; ++b) {
+      const Index p = static_cast<Index>(
+          std::lower_bound(target_rows.begin(), target_rows.end(), rows[b]) - target_rows.begin());
+      const Block dense = original[p] + blocks[b] * s;
+      CHECK((target[p] - dense).cwiseAbs().maxCoeff() < 1e-12);
     }
-    std::vector<Eigen::Matrix3d> multi_expected = target;
-    for (Index m = 0; m < width; ++m) {
-      const Eigen::Matrix3d s_m = -columns[m][first].transpose();
-      for (Index b = first; b < size; ++b) {
-        const Index p =
-            static_cast<Index>(std::lower_bound(target_rows.begin(), target_rows.end(), rows[b]) -
-                               target_rows.begin());
-        lslam::detail::addBlockProduct<3>(multi_expected[p], columns[m][b], s_m);
-      }
-    }
-    lslam::detail::subtractOuterProductsOfColumnsAvx(column_of.data(), width, rows.data(), first,
-                                                     size, target_rows.data(), target.data());
-    for (std::size_t p = 0; p < target.size(); ++p) CHECK(sameBits(target[p], multi_expected[p]));
-
-    checkAvxReflections<1>(rng, rows, blocks, target_rows.size(), n);
-    checkAvxReflections<2>(rng, rows, blocks, target_rows.size(), n);
+    if constexpr (D == 3) checkSupernodeProducts(rng, rows, target_rows, first, size, n, target);
+    checkAvxReflections<D, 1>(rng, rows, blocks, target_rows.size(), n);
+    checkAvxReflections<D, 2>(rng, rows, blocks, target_rows.size(), n);
   }
+}
+
+}  // namespace
+
+TEST_CASE("the AVX block kernels compute the portable forms' bits") {
+  if (!lslam::detail::cpuHasAvxFma()) {
+    MESSAGE("skipped: this CPU has no AVX2/FMA (the portable forms run everywhere)");
+    return;
+  }
+  checkAvxKernels<3>();
+#if defined(__x86_64__)
+  checkAvxKernels<6>();
+#endif
 }

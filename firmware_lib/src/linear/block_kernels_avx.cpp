@@ -282,6 +282,284 @@ LSLAM_TARGET_AVX_FMA void subtractOuterProductsOfColumnsAvx(const Mat3* const* c
   }
 }
 
+// ---- 6 x 6 blocks: a column's rows 0-3 in a 4-lane register, rows 4-5 in a 2-lane one. ----
+
+namespace {
+
+// The operations of the 6 x 6 kernels on rows 0-3 (Lanes4) or rows 4-5 (Lanes2) of a column, so
+// that one template serves both halves.
+struct Lanes4 {
+  using V = __m256d;
+  static constexpr int kFirstRow = 0;
+  LSLAM_TARGET_AVX_FMA static V load(const double* p) { return _mm256_loadu_pd(p); }
+  LSLAM_TARGET_AVX_FMA static void store(double* p, V v) { _mm256_storeu_pd(p, v); }
+  LSLAM_TARGET_AVX_FMA static V broadcast(const double* p) { return _mm256_broadcast_sd(p); }
+  LSLAM_TARGET_AVX_FMA static V fmadd(V a, V b, V c) { return _mm256_fmadd_pd(a, b, c); }
+  LSLAM_TARGET_AVX_FMA static V fnmadd(V a, V b, V c) { return _mm256_fnmadd_pd(a, b, c); }
+  LSLAM_TARGET_AVX_FMA static V mul(V a, V b) { return _mm256_mul_pd(a, b); }
+  LSLAM_TARGET_AVX_FMA static V sub(V a, V b) { return _mm256_sub_pd(a, b); }
+};
+
+struct Lanes2 {
+  using V = __m128d;
+  static constexpr int kFirstRow = 4;
+  LSLAM_TARGET_AVX_FMA static V load(const double* p) { return _mm_loadu_pd(p); }
+  LSLAM_TARGET_AVX_FMA static void store(double* p, V v) { _mm_storeu_pd(p, v); }
+  LSLAM_TARGET_AVX_FMA static V broadcast(const double* p) { return _mm_loaddup_pd(p); }
+  LSLAM_TARGET_AVX_FMA static V fmadd(V a, V b, V c) { return _mm_fmadd_pd(a, b, c); }
+  LSLAM_TARGET_AVX_FMA static V fnmadd(V a, V b, V c) { return _mm_fnmadd_pd(a, b, c); }
+  LSLAM_TARGET_AVX_FMA static V mul(V a, V b) { return _mm_mul_pd(a, b); }
+  LSLAM_TARGET_AVX_FMA static V sub(V a, V b) { return _mm_sub_pd(a, b); }
+};
+
+// ReflectionCoefficients for D = 6: per reflection j the u entries of factor 0 (c = 0 .. 5), of
+// factor 1, .., then beta(j); a local copy, as there.
+template <int M>
+struct ReflectionCoefficients6 {
+  double of[6][6 * M + 1];
+
+  ReflectionCoefficients6(const Mat6* u, const Vec6& beta) {
+    for (int j = 0; j < 6; ++j) {
+      for (int m = 0; m < M; ++m) {
+        for (int c = 0; c < 6; ++c) of[j][6 * m + c] = u[m](c, j);
+      }
+      of[j][6 * M] = beta(j);
+    }
+  }
+};
+
+// One half (rows 0-3 or 4-5) of a 6 x 6 row block of applyRowReflectionsFromAvx: [l w[0] ..] H...
+// from l_in to l_out (which may be l_in), w in place. Only W stays in registers: reflection j reads
+// and writes column j of l alone, so it is loaded and stored there.
+template <typename L, int M>
+LSLAM_TARGET_AVX_FMA inline void reflectRowHalf6(const ReflectionCoefficients6<M>& h,
+                                                 const double* l_in, double* l_out,
+                                                 double* const* w) {
+  using V = typename L::V;
+  V x[M][6];
+#pragma GCC unroll 2
+  for (int m = 0; m < M; ++m) {
+#pragma GCC unroll 6
+    for (int c = 0; c < 6; ++c) x[m][c] = L::load(w[m] + 6 * c + L::kFirstRow);
+  }
+#pragma GCC unroll 6
+  for (int j = 0; j < 6; ++j) {
+    // Per row, as applyRowReflections: t = l_j + sum_m sum_c w_mc u_mc (fused, m then c
+    // ascending), s = beta t, l_j -= s, w_mc -= s u_mc (fused).
+    const double* coefficient = h.of[j];
+    const V l = L::load(l_in + 6 * j + L::kFirstRow);
+    V t = l;
+#pragma GCC unroll 2
+    for (int m = 0; m < M; ++m) {
+#pragma GCC unroll 6
+      for (int c = 0; c < 6; ++c) t = L::fmadd(x[m][c], L::broadcast(coefficient + 6 * m + c), t);
+    }
+    const V s = L::mul(L::broadcast(coefficient + 6 * M), t);
+    L::store(l_out + 6 * j + L::kFirstRow, L::sub(l, s));
+#pragma GCC unroll 2
+    for (int m = 0; m < M; ++m) {
+#pragma GCC unroll 6
+      for (int c = 0; c < 6; ++c) {
+        x[m][c] = L::fnmadd(s, L::broadcast(coefficient + 6 * m + c), x[m][c]);
+      }
+    }
+  }
+#pragma GCC unroll 2
+  for (int m = 0; m < M; ++m) {
+#pragma GCC unroll 6
+    for (int c = 0; c < 6; ++c) L::store(w[m] + 6 * c + L::kFirstRow, x[m][c]);
+  }
+}
+
+template <int M>
+LSLAM_TARGET_AVX_FMA inline void reflectRowBlock6(const ReflectionCoefficients6<M>& h,
+                                                  const double* l_in, double* l_out,
+                                                  double* const* w) {
+  reflectRowHalf6<Lanes4, M>(h, l_in, l_out, w);
+  reflectRowHalf6<Lanes2, M>(h, l_in, l_out, w);
+}
+
+// Column c of a 6 x 6 block: rows 0-3 and rows 4-5.
+LSLAM_TARGET_AVX_FMA inline __m256d loadTop(const double* block, int c) {
+  return _mm256_loadu_pd(block + 6 * c);
+}
+LSLAM_TARGET_AVX_FMA inline __m128d loadBottom(const double* block, int c) {
+  return _mm_loadu_pd(block + 6 * c + 4);
+}
+
+// Each column's six lanes (rows 0-3 in top[c], rows 4-5 in bottom[c]) summed as sumOfSix, into
+// lanes c of sum_top (c < 4) and c - 4 of sum_bottom.
+LSLAM_TARGET_AVX_FMA inline void sumColumnsOfSix(const __m256d* top, const __m128d* bottom,
+                                                 __m256d& sum_top, __m128d& sum_bottom) {
+  const __m256d h01 = _mm256_hadd_pd(top[0], top[1]);  // 0:01, 1:01, 0:23, 1:23
+  const __m256d h23 = _mm256_hadd_pd(top[2], top[3]);  // 2:01, 3:01, 2:23, 3:23
+  const __m256d first_four =
+      _mm256_add_pd(_mm256_permute2f128_pd(h01, h23, 0x20), _mm256_permute2f128_pd(h01, h23, 0x31));
+  const __m256d fourth_fifth =
+      _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_hadd_pd(bottom[0], bottom[1])),
+                           _mm_hadd_pd(bottom[2], bottom[3]), 1);
+  sum_top = _mm256_add_pd(first_four, fourth_fifth);
+  const __m256d h45 = _mm256_hadd_pd(top[4], top[5]);  // 4:01, 5:01, 4:23, 5:23
+  const __m128d last_four = _mm_add_pd(_mm256_castpd256_pd128(h45), _mm256_extractf128_pd(h45, 1));
+  sum_bottom = _mm_add_pd(last_four, _mm_hadd_pd(bottom[4], bottom[5]));
+}
+
+// acc += block b's columns times y lane by lane (one column of b^T y per accumulator pair).
+LSLAM_TARGET_AVX_FMA inline void addTransposedProduct6(const double* b, const double* y_entry,
+                                                       __m256d* top, __m128d* bottom) {
+  const __m256d y_top = _mm256_loadu_pd(y_entry);
+  const __m128d y_bottom = _mm_loadu_pd(y_entry + 4);
+#pragma GCC unroll 6
+  for (int c = 0; c < 6; ++c) {
+    top[c] = _mm256_fmadd_pd(loadTop(b, c), y_top, top[c]);
+    bottom[c] = _mm_fmadd_pd(loadBottom(b, c), y_bottom, bottom[c]);
+  }
+}
+
+}  // namespace
+
+template <int M>
+LSLAM_TARGET_AVX_FMA void applyRowReflectionsFromAvx(const Mat6* u, const Vec6& beta,
+                                                     const Mat6* source_blocks, const Index* source,
+                                                     Index kept, Mat6* blocks, const Index* rows,
+                                                     Index size, Mat6* const* w) {
+  static const Mat6 kZero = Mat6::Zero();
+  const ReflectionCoefficients6<M> h(u, beta);
+  for (Index b = 1; b < size; ++b) {
+    const Mat6* l_in = b < kept                ? source_blocks + b
+                       : source[b] != kNoIndex ? source_blocks + source[b]
+                                               : &kZero;
+    double* w_data[M];
+    for (int m = 0; m < M; ++m) w_data[m] = w[m][rows[b]].data();
+    reflectRowBlock6<M>(h, l_in->data(), blocks[b].data(), w_data);
+  }
+}
+
+template <int M>
+LSLAM_TARGET_AVX_FMA void applyRowReflectionsToRowAvx(const Mat6* u, const Vec6& beta,
+                                                      Eigen::Matrix<double, 1, 6>& x_l,
+                                                      Eigen::Matrix<double, 1, 6>* const* x_w) {
+  applyRowReflections<6, M>(u, beta, x_l, x_w);
+}
+
+LSLAM_TARGET_AVX_FMA bool solveColumnAvx(const Vec6& d, const Mat6* blocks, const Index* rows,
+                                         Index size, double* solution, Index k, double tolerance,
+                                         Vec6& delta) {
+  __m256d top[6];
+  __m128d bottom[6];
+#pragma GCC unroll 6
+  for (int c = 0; c < 6; ++c) {
+    top[c] = _mm256_setzero_pd();
+    bottom[c] = _mm_setzero_pd();
+  }
+  // The parent's product last (see subtractTransposedProductsFused).
+  for (Index i = 2; i < size; ++i) {
+    addTransposedProduct6(blocks[i].data(), solution + kSolutionStride<6> * rows[i], top, bottom);
+  }
+  if (size > 1) {
+    addTransposedProduct6(blocks[1].data(), solution + kSolutionStride<6> * rows[1], top, bottom);
+  }
+  __m256d sum_top;
+  __m128d sum_bottom;
+  sumColumnsOfSix(top, bottom, sum_top, sum_bottom);
+  const __m256d r_top = _mm256_sub_pd(_mm256_loadu_pd(d.data()), sum_top);
+  const __m128d r_bottom = _mm_sub_pd(_mm_loadu_pd(d.data() + 4), sum_bottom);
+  // x(c) = column c of L(k,k)^-1 (blocks[0]) times r, unfused, as multiplyTransposed.
+  const double* inverse = blocks[0].data();
+#pragma GCC unroll 6
+  for (int c = 0; c < 6; ++c) {
+    top[c] = _mm256_mul_pd(loadTop(inverse, c), r_top);
+    bottom[c] = _mm_mul_pd(loadBottom(inverse, c), r_bottom);
+  }
+  __m256d x_top;
+  __m128d x_bottom;
+  sumColumnsOfSix(top, bottom, x_top, x_bottom);
+  double* entry = solution + kSolutionStride<6> * k;
+  const __m256d sign_top = _mm256_set1_pd(-0.0);
+  const __m128d sign_bottom = _mm_set1_pd(-0.0);
+  const __m256d change_top =
+      _mm256_andnot_pd(sign_top, _mm256_sub_pd(x_top, _mm256_loadu_pd(entry)));
+  const __m128d change_bottom =
+      _mm_andnot_pd(sign_bottom, _mm_sub_pd(x_bottom, _mm_loadu_pd(entry + 4)));
+  const int moved =
+      _mm256_movemask_pd(_mm256_cmp_pd(change_top, _mm256_set1_pd(tolerance), _CMP_GT_OQ)) |
+      _mm_movemask_pd(_mm_cmp_pd(change_bottom, _mm_set1_pd(tolerance), _CMP_GT_OQ));
+  _mm256_storeu_pd(entry, x_top);
+  _mm_storeu_pd(entry + 4, x_bottom);
+  _mm256_storeu_pd(delta.data(), x_top);
+  _mm_storeu_pd(delta.data() + 4, x_bottom);
+  return moved != 0;
+}
+
+LSLAM_TARGET_AVX_FMA void multiplyByTransposedLowerAvx(Mat6* blocks, Index count, const Mat6& l) {
+  for (Index b = 0; b < count; ++b) {
+    double* block = blocks[b].data();
+    // Every input column in registers before the first store (the product is in place).
+    __m256d top[6];
+    __m128d bottom[6];
+#pragma GCC unroll 6
+    for (int c = 0; c < 6; ++c) {
+      top[c] = loadTop(block, c);
+      bottom[c] = loadBottom(block, c);
+    }
+    // Column j: b_0 l(j, 0), then + b_m l(j, m) for m = 1 .. j, fused in that order.
+    __m256d out_top[6];
+    __m128d out_bottom[6];
+#pragma GCC unroll 6
+    for (int j = 0; j < 6; ++j) {
+      __m256d t = _mm256_mul_pd(top[0], _mm256_broadcast_sd(&l(j, 0)));
+      __m128d u = _mm_mul_pd(bottom[0], _mm_loaddup_pd(&l(j, 0)));
+#pragma GCC unroll 6
+      for (int m = 1; m <= j; ++m) {
+        t = _mm256_fmadd_pd(top[m], _mm256_broadcast_sd(&l(j, m)), t);
+        u = _mm_fmadd_pd(bottom[m], _mm_loaddup_pd(&l(j, m)), u);
+      }
+      out_top[j] = t;
+      out_bottom[j] = u;
+    }
+#pragma GCC unroll 6
+    for (int c = 0; c < 6; ++c) {
+      _mm256_storeu_pd(block + 6 * c, out_top[c]);
+      _mm_storeu_pd(block + 6 * c + 4, out_bottom[c]);
+    }
+  }
+}
+
+LSLAM_TARGET_AVX_FMA void addBlockProductsAvx(const Mat6* blocks, const Index* rows, Index first,
+                                              Index size, const Mat6& s, const Index* target_rows,
+                                              Mat6* target) {
+  Index p = 0;
+  for (Index b = first; b < size; ++b) {
+    while (target_rows[p] < rows[b]) ++p;
+    LSLAM_DEBUG_ASSERT(target_rows[p] == rows[b]);
+    const double* b_data = blocks[b].data();
+    double* t_data = target[p].data();
+    // Column c of t + b s, each product fused in order k = 0 .. 5 (as addBlockProduct).
+#pragma GCC unroll 6
+    for (int c = 0; c < 6; ++c) {
+      __m256d t = loadTop(t_data, c);
+      __m128d u = loadBottom(t_data, c);
+#pragma GCC unroll 6
+      for (int k = 0; k < 6; ++k) {
+        t = _mm256_fmadd_pd(loadTop(b_data, k), _mm256_broadcast_sd(&s(k, c)), t);
+        u = _mm_fmadd_pd(loadBottom(b_data, k), _mm_loaddup_pd(&s(k, c)), u);
+      }
+      _mm256_storeu_pd(t_data + 6 * c, t);
+      _mm_storeu_pd(t_data + 6 * c + 4, u);
+    }
+  }
+}
+
+// The reflections of one factor and of two at D = 6.
+template void applyRowReflectionsToRowAvx<1>(const Mat6*, const Vec6&, Eigen::Matrix<double, 1, 6>&,
+                                             Eigen::Matrix<double, 1, 6>* const*);
+template void applyRowReflectionsToRowAvx<2>(const Mat6*, const Vec6&, Eigen::Matrix<double, 1, 6>&,
+                                             Eigen::Matrix<double, 1, 6>* const*);
+template void applyRowReflectionsFromAvx<1>(const Mat6*, const Vec6&, const Mat6*, const Index*,
+                                            Index, Mat6*, const Index*, Index, Mat6* const*);
+template void applyRowReflectionsFromAvx<2>(const Mat6*, const Vec6&, const Mat6*, const Index*,
+                                            Index, Mat6*, const Index*, Index, Mat6* const*);
+
 #else
 
 // Never called (cpuHasAvxFma() is false here), but the calls behind it must link.

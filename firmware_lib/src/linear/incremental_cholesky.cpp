@@ -385,7 +385,7 @@ template <int... S>
 void IncrementalCholesky<S...>::scatter(const Index* rows, const Block* blocks, Index size,
                                         const Vector& d, double sign) {
   bool host_kernels = false;  // asked once per column: a call on a hot loop otherwise
-  if constexpr (D == 3) host_kernels = detail::cpuHasAvxFma();
+  if constexpr (detail::kAvxForms<D>) host_kernels = detail::cpuHasAvxFma();
   for (Index a = 1; a < size; ++a) {
     const Index s = rows[a];
     const Index* target_rows = a_.rows + a_.staged_start[s];
@@ -397,7 +397,7 @@ void IncrementalCholesky<S...>::scatter(const Index* rows, const Block* blocks, 
     // target's diagonal block (target_rows[0]). The AVX kernel takes it in the same loop; the
     // portable loop takes it first, as addBlockProduct: the same bits, and on the Cortex-M7 fewer
     // instructions than inside the merge.
-    if constexpr (D == 3) {
+    if constexpr (detail::kAvxForms<D>) {
       if (host_kernels) {
         detail::addBlockProductsAvx(blocks, rows, a, size, l_sk_t, target_rows, target);
         stats_.block_products += size - a;

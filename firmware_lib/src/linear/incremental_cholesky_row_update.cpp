@@ -42,7 +42,7 @@ struct RowReflections {
   // The same on one row (the right-hand side's), through the AVX2/FMA-compiled form on hosts that
   // have it: outside such a function std::fma is a call into libm on x86-64. The same bits.
   void applyToRow(Eigen::Matrix<double, 1, D>& x_l, Eigen::Matrix<double, 1, D>* const* x_w) const {
-    if constexpr (D == 3) {
+    if constexpr (detail::kAvxForms<D>) {
       if (detail::cpuHasAvxFma()) {
         detail::applyRowReflectionsToRowAvx<M>(u, beta, x_l, x_w);
         return;
@@ -59,7 +59,7 @@ template <int D, int M>
 void reflectRows(const RowReflections<D, M>& h, const Eigen::Matrix<double, D, D>* source_blocks,
                  const Index* source, Index kept, Eigen::Matrix<double, D, D>* blocks,
                  const Index* rows, Index size, Eigen::Matrix<double, D, D>* const* w) {
-  if constexpr (D == 3) {
+  if constexpr (detail::kAvxForms<D>) {
     if (detail::cpuHasAvxFma()) {
       detail::applyRowReflectionsFromAvx<M>(h.u, h.beta, source_blocks, source, kept, blocks, rows,
                                             size, w);

@@ -13,9 +13,10 @@ namespace detail {
 // so a row reads its y with one index (through the variables' order it would take two dependent
 // loads). On a SIMD host the products are summed elementwise and reduced to a vector once per
 // column, where a transposed block times a vector would reduce across lanes for every block.
-// For D = 3 on x86-64 that is the std::fma form, whose bits the AVX2/FMA kernel of the whole column
-// step gives (solveColumnAvx: a block column per register, where Eigen's SSE2 form leaves a lane
-// of every column over). On a scalar FPU (the Cortex-M) the direct form takes fewer instructions.
+// For D = 3 and 6 on x86-64 that is the std::fma form, whose bits the AVX2/FMA kernel of the whole
+// column step gives (solveColumnAvx: a block column per register, where Eigen's SSE2 form leaves a
+// lane of every column over). On a scalar FPU (the Cortex-M) the direct form takes fewer
+// instructions.
 template <int D>
 inline void subtractTransposedProducts(Eigen::Matrix<double, D, 1>& x,
                                        const Eigen::Matrix<double, D, D>* blocks, const Index* rows,
@@ -23,7 +24,7 @@ inline void subtractTransposedProducts(Eigen::Matrix<double, D, 1>& x,
   using ConstSolution = Eigen::Map<const Eigen::Matrix<double, D, 1>>;
   constexpr Index kStride = kSolutionStride<D>;
 #if defined(__x86_64__)
-  if constexpr (D == 3) {
+  if constexpr (D == 3 || D == 6) {
     subtractTransposedProductsFused(x, blocks, rows, size, solution);
     return;
   }
@@ -54,6 +55,10 @@ inline Eigen::Matrix<double, D, 1> solveColumn(const Eigen::Matrix<double, D, 1>
                                                const double* solution) {
   Eigen::Matrix<double, D, 1> x = d;
   subtractTransposedProducts<D>(x, blocks, rows, size, solution);
+#if defined(__x86_64__)
+  // In the order of solveColumnAvx's reduction (Eigen's product of a 6 x 6 has its own).
+  if constexpr (D == 6) return multiplyTransposed(blocks[0], x);
+#endif
   return blocks[0].transpose() * x;
 }
 
@@ -66,7 +71,7 @@ inline bool solveColumnInPlace(const Eigen::Matrix<double, D, 1>& d,
                                const Eigen::Matrix<double, D, D>* blocks, const Index* rows,
                                Index size, double* solution, Index k, double tolerance,
                                Eigen::Matrix<double, D, 1>& delta) {
-  if constexpr (D == 3) {
+  if constexpr (kAvxForms<D>) {
     if (cpuHasAvxFma()) return solveColumnAvx(d, blocks, rows, size, solution, k, tolerance, delta);
   }
   Eigen::Map<Eigen::Matrix<double, D, 1>> entry(solution + kSolutionStride<D> * k);

@@ -3,12 +3,12 @@
 // factorization (t += b s) and the Householder reflections of the row update.
 //
 // Every multiply-add is fused (std::fma: one rounding), in one fixed order, so that all forms
-// compute the same bits. On an x86-64 host the two loops that dominate a large factor's updates
-// also have AVX2/FMA forms for D = 3: a 3 x 3 block's columns of 3 leave SSE2's 2-lane registers
-// a lane short, a 4-lane register takes a column in one instruction, and a fused multiply-add is
-// one instruction where a multiply and an add are two. They are chosen at run time
-// (cpuHasAvxFma), so the host binary still runs on any x86-64; a host without FMA computes the
-// same bits through std::fma in software, only slower.
+// compute the same bits. On an x86-64 host the loops that dominate a large factor's updates also
+// have AVX2/FMA forms for D = 3 and D = 6: a 3 x 3 block's columns of 3 leave SSE2's 2-lane
+// registers a lane short, a 4-lane register takes a column in one instruction (a column of 6 in a
+// 4-lane and a 2-lane one), and a fused multiply-add is one instruction where a multiply and an
+// add are two. They are chosen at run time (cpuHasAvxFma), so the host binary still runs on any
+// x86-64; a host without FMA computes the same bits through std::fma in software, only slower.
 // The Cortex-M7's FPU fuses in hardware (vfma.f64). Elsewhere cpuHasAvxFma() is false.
 // Other block sizes have no AVX2 form, so no second form's bits to match: on x86-64 they take
 // Eigen's products and unfused multiply-adds, as std::fma without -mfma is a call into libm.
@@ -21,11 +21,11 @@ namespace lslam {
 namespace detail {
 
 // a * b + c for the kernels of block size D: fused (std::fma) where the bits must match a fused
-// form (D = 3 on x86-64) and on targets that fuse in hardware; unfused for other D on x86-64.
+// form (D = 3 and 6 on x86-64) and on targets that fuse in hardware; unfused for other D on x86-64.
 template <int D>
 inline double multiplyAdd(double a, double b, double c) {
 #if defined(__x86_64__)
-  if constexpr (D != 3) return a * b + c;
+  if constexpr (D != 3 && D != 6) return a * b + c;
 #endif
   return std::fma(a, b, c);
 }
@@ -34,13 +34,23 @@ inline double multiplyAdd(double a, double b, double c) {
 template <int D>
 inline constexpr bool kFusedScalarKernels =
 #if defined(__x86_64__)
-    D == 3;
+    D == 3 || D == 6;
 #else
     false;
 #endif
 
+// Whether block size D has AVX2/FMA forms to dispatch to (when cpuHasAvxFma()): D = 3 everywhere
+// (dead code off x86-64, as before), D = 6 on x86-64 only, so that no other target sees it.
+template <int D>
+inline constexpr bool kAvxForms =
+#if defined(__x86_64__)
+    D == 3 || D == 6;
+#else
+    D == 3;
+#endif
+
 // t += b * s: each entry t(i, c) takes b(i, 0) s(0, c), then b(i, 1) s(1, c), ..., each fused.
-// On x86-64 for D = 3 only; elsewhere Eigen's product, the fewest instructions on the scalar
+// On x86-64 for D = 3 and 6 only; elsewhere Eigen's product, the fewest instructions on the scalar
 // Cortex-M.
 template <int D>
 inline void addBlockProduct(Eigen::Matrix<double, D, D>& t, const Eigen::Matrix<double, D, D>& b,
@@ -61,7 +71,7 @@ inline void addBlockProduct(Eigen::Matrix<double, D, D>& t, const Eigen::Matrix<
 // b = b l^T for a lower-triangular l (only its lower triangle is read): each entry b(i, j) becomes
 // b(i, 0) l(j, 0), then + b(i, m) l(j, m) for m = 1 .. j, each fused: D (D + 1) / 2 multiply-adds
 // per row where the general product takes D^2 (a factorized column's blocks times L(k,k)^-T).
-// On x86-64 for D = 3 only; elsewhere Eigen's product, as addBlockProduct.
+// On x86-64 for D = 3 and 6 only; elsewhere Eigen's product, as addBlockProduct.
 template <int D>
 inline void multiplyByTransposedLower(Eigen::Matrix<double, D, D>& b,
                                       const Eigen::Matrix<double, D, D>& l) {
@@ -160,6 +170,47 @@ inline void subtractTransposedProductsFused(Vec3& x, const Mat3* blocks, const I
   for (int c = 0; c < 3; ++c) x(c) -= (acc(0, c) + acc(1, c)) + acc(2, c);
 }
 
+#if defined(__x86_64__)
+using Mat6 = Eigen::Matrix<double, 6, 6>;
+using Vec6 = Eigen::Matrix<double, 6, 1>;
+
+// The sum of six terms in the order of the AVX forms' reductions (one 4-lane and one 2-lane
+// register per column): ((p0 + p1) + (p2 + p3)) + (p4 + p5).
+inline double sumOfSix(double p0, double p1, double p2, double p3, double p4, double p5) {
+  return ((p0 + p1) + (p2 + p3)) + (p4 + p5);
+}
+
+// subtractTransposedProductsFused for D = 6 (solution stride 6): per entry (r, c) the products
+// blocks[i](r, c) y_i(r) summed over i = 2, .., size - 1, then i = 1 (fused, from zero), and
+// x(c) -= sumOfSix of column c's six sums.
+inline void subtractTransposedProductsFused(Vec6& x, const Mat6* blocks, const Index* rows,
+                                            Index size, const double* solution) {
+  Mat6 acc = Mat6::Zero();
+  const auto add = [&](Index i) {
+    const double* y = solution + kSolutionStride<6> * rows[i];
+    for (int c = 0; c < 6; ++c) {
+      for (int r = 0; r < 6; ++r) acc(r, c) = std::fma(blocks[i](r, c), y[r], acc(r, c));
+    }
+  };
+  for (Index i = 2; i < size; ++i) add(i);
+  if (size > 1) add(1);
+  for (int c = 0; c < 6; ++c) {
+    x(c) -= sumOfSix(acc(0, c), acc(1, c), acc(2, c), acc(3, c), acc(4, c), acc(5, c));
+  }
+}
+
+// inverse^T x for D = 6, in the AVX form's order: x'(c) = sumOfSix of inverse(r, c) x(r) (each
+// product rounded, unfused).
+inline Vec6 multiplyTransposed(const Mat6& inverse, const Vec6& x) {
+  Vec6 out;
+  for (int c = 0; c < 6; ++c) {
+    out(c) = sumOfSix(inverse(0, c) * x(0), inverse(1, c) * x(1), inverse(2, c) * x(2),
+                      inverse(3, c) * x(3), inverse(4, c) * x(4), inverse(5, c) * x(5));
+  }
+  return out;
+}
+#endif
+
 // Whether this CPU runs the AVX2/FMA forms below (never off x86-64: known at compile time there,
 // so the checks cost the target nothing).
 #if defined(__x86_64__)
@@ -213,12 +264,34 @@ bool solveColumnAvx(const Vec3& d, const Mat3* blocks, const Index* rows, Index 
 // multiplyByTransposedLower<3>(blocks[b], l) for b in [0, count), the same bits.
 void multiplyByTransposedLowerAvx(Mat3* blocks, Index count, const Mat3& l);
 
+#if defined(__x86_64__)
+// The forms above for 6 x 6 blocks (x86-64 only), the same bits as the portable forms at D = 6:
+// a block's column is rows 0-3 in a 4-lane register and rows 4-5 in a 2-lane one. The
+// reflections work on rows 0-3 of a row block, then on rows 4-5 (rows do not mix), and keep only
+// the W columns in registers (column j of L is read and written by reflection j alone).
+template <int M>
+LSLAM_TARGET_AVX_FMA void applyRowReflectionsFromAvx(const Mat6* u, const Vec6& beta,
+                                                     const Mat6* source_blocks, const Index* source,
+                                                     Index kept, Mat6* blocks, const Index* rows,
+                                                     Index size, Mat6* const* w);
+template <int M>
+LSLAM_TARGET_AVX_FMA void applyRowReflectionsToRowAvx(const Mat6* u, const Vec6& beta,
+                                                      Eigen::Matrix<double, 1, 6>& x_l,
+                                                      Eigen::Matrix<double, 1, 6>* const* x_w);
+// solveColumnInPlace<6> with subtractTransposedProductsFused and multiplyTransposed above.
+bool solveColumnAvx(const Vec6& d, const Mat6* blocks, const Index* rows, Index size,
+                    double* solution, Index k, double tolerance, Vec6& delta);
+void multiplyByTransposedLowerAvx(Mat6* blocks, Index count, const Mat6& l);
+void addBlockProductsAvx(const Mat6* blocks, const Index* rows, Index first, Index size,
+                         const Mat6& s, const Index* target_rows, Mat6* target);
+#endif
+
 // multiplyByTransposedLower<D>(blocks[b], l) for b in [0, count), through the AVX2/FMA form on
 // hosts that have it (the same bits).
 template <int D>
 inline void multiplyBlocksByTransposedLower(Eigen::Matrix<double, D, D>* blocks, Index count,
                                             const Eigen::Matrix<double, D, D>& l) {
-  if constexpr (D == 3) {
+  if constexpr (kAvxForms<D>) {
     if (cpuHasAvxFma()) {
       multiplyByTransposedLowerAvx(blocks, count, l);
       return;
