@@ -13,9 +13,11 @@ using lslam::target::Line;
 constexpr std::int32_t kMaxSteps = 1024;
 std::uint64_t g_sorted[kMaxSteps];  // scratch for medians (no heap)
 
-constexpr StepKind kKinds[] = {
-    StepKind::First,           StepKind::Odometry, StepKind::LoopClosure, StepKind::Relinearization,
-    StepKind::PrepareOrdering, StepKind::Reorder,  StepKind::Layout};
+// A kind without steps prints no summary (the 2D stream has no landmark observations).
+constexpr StepKind kKinds[] = {StepKind::First,           StepKind::Odometry,
+                               StepKind::LoopClosure,     StepKind::LandmarkObservation,
+                               StepKind::Relinearization, StepKind::PrepareOrdering,
+                               StepKind::Reorder,         StepKind::Layout};
 
 const char* name(StepKind kind) {
   switch (kind) {
@@ -31,6 +33,8 @@ const char* name(StepKind kind) {
       return "layout";
     case StepKind::LoopClosure:
       return "loop-closure";
+    case StepKind::LandmarkObservation:
+      return "landmark-observation";
     case StepKind::Odometry:
       return "odometry";
   }

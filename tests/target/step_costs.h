@@ -6,7 +6,7 @@
 
 // What a step did, the first that applies: the very first pose; a COLAMD reordering (with a full
 // refactorization); a relinearization of some variables; a loop closure (a measurement other than
-// odometry); odometry only.
+// odometry); a landmark observation (a point observation, no loop closure); odometry only.
 // A step that prepared an ordering, or laid the factor out after a full refactorization, is
 // counted apart: that maintenance comes on top of whatever else the step did.
 enum class StepKind : std::uint8_t {
@@ -16,6 +16,7 @@ enum class StepKind : std::uint8_t {
   Relinearization,
   Layout,
   LoopClosure,
+  LandmarkObservation,
   Odometry
 };
 

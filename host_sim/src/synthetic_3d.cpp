@@ -1,0 +1,176 @@
+#include "host_sim/synthetic_3d.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <map>
+#include <random>
+#include <stdexcept>
+#include <utility>
+#include <vector>
+
+#include "host_sim/model_chi2.h"
+#include "portable_random.h"
+
+namespace lslam::sim {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+using Random = detail::PortableRandom;
+
+// sigma times three standard normal draws, x then y then z.
+Eigen::Vector3d normal3(Random& random, double sigma) {
+  const double x = random.normal();
+  const double y = random.normal();
+  const double z = random.normal();
+  return sigma * Eigen::Vector3d(x, y, z);
+}
+
+struct Pose {
+  Eigen::Quaterniond q;
+  Eigen::Vector3d t;
+};
+
+Pose relative(const Pose& a, const Pose& b) {
+  const Eigen::Quaterniond ai = a.q.conjugate();
+  return {(ai * b.q).normalized(), ai * (b.t - a.t)};
+}
+
+// exp of a small rotation vector.
+Eigen::Quaterniond rotationOf(const Eigen::Vector3d& r) {
+  const double angle = r.norm();
+  if (angle == 0.0) return Eigen::Quaterniond::Identity();
+  return Eigen::Quaterniond(Eigen::AngleAxisd(angle, r / angle));
+}
+
+Eigen::VectorXd poseParameters(const Pose& p) {
+  Eigen::VectorXd v(7);
+  v << p.t, p.q.x(), p.q.y(), p.q.z(), p.q.w();
+  return v;
+}
+
+void checkOptions(const Synthetic3DOptions& o) {
+  const auto probability = [](double p) { return p >= 0.0 && p <= 1.0; };
+  if (o.laps < 1 || o.poses < 2 * o.laps || o.landmarks < 0 || o.max_observations_per_pose < 0 ||
+      !probability(o.loop_probability) || !probability(o.observation_probability) ||
+      !(o.radius > 0.0) || !(o.sensor_range >= 0.0) || !(o.sigma_translation > 0.0) ||
+      !(o.sigma_rotation > 0.0) || !(o.sigma_point > 0.0)) {
+    throw std::invalid_argument("generateLandmarkWorld3D: option out of range");
+  }
+}
+
+// The true pose at time i: on the lap's circle, facing along the track, pitched with the slope.
+Pose truePose(const Synthetic3DOptions& o, int i) {
+  const int per_lap = o.poses / o.laps;
+  const int lap = std::min(i / per_lap, o.laps - 1);
+  const double phi = 2.0 * kPi * static_cast<double>(i) / static_cast<double>(per_lap);
+  const double r = o.radius + o.lap_radius_step * static_cast<double>(lap);
+  const double z = o.height_amplitude * std::sin(2.0 * phi + static_cast<double>(lap));
+  const double slope = 2.0 * o.height_amplitude * std::cos(2.0 * phi + lap) / r;
+  const double yaw = phi + 0.5 * kPi;
+  const double pitch = -std::atan(slope);
+  const double roll = 0.05 * std::sin(3.0 * phi);
+  const Eigen::Quaterniond q = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
+                               Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+                               Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX());
+  return {q.normalized(), Eigen::Vector3d(r * std::cos(phi), r * std::sin(phi), z)};
+}
+
+ModelFactor betweenFactor(const Synthetic3DOptions& o, Random& random, int from, int to,
+                          const Pose& a, const Pose& b) {
+  const Pose rel = relative(a, b);
+  const Eigen::Vector3d dt = normal3(random, o.sigma_translation);
+  const Eigen::Vector3d dr = normal3(random, o.sigma_rotation);
+  const Pose z{(rel.q * rotationOf(dr)).normalized(), rel.t + rel.q * dt};
+  ModelFactor f;
+  f.kind = FactorKind::BetweenSE3;
+  f.first = {VariableRole::Pose, from};
+  f.second = {VariableRole::Pose, to};
+  f.measurement = poseParameters(z);
+  f.information = Eigen::MatrixXd::Zero(6, 6);
+  for (int k = 0; k < 3; ++k) {
+    f.information(k, k) = 1.0 / (o.sigma_translation * o.sigma_translation);
+    f.information(k + 3, k + 3) = 4.0 / (o.sigma_rotation * o.sigma_rotation);
+  }
+  return f;
+}
+
+}  // namespace
+
+ModelDataset generateLandmarkWorld3D(const Synthetic3DOptions& o) {
+  checkOptions(o);
+  Random random(o.seed);
+  const int per_lap = o.poses / o.laps;
+  std::vector<Eigen::Vector3d> landmarks;
+  for (int k = 0; k < o.landmarks; ++k) {
+    const double phi = 2.0 * kPi * random.uniform();
+    const double r = o.radius + o.landmark_spread * (2.0 * random.uniform() - 1.0);
+    const double z = -1.0 + 3.0 * random.uniform();
+    landmarks.emplace_back(r * std::cos(phi), r * std::sin(phi), z);
+  }
+
+  // Factors in online order; observations name the scattered landmark's index for now.
+  std::vector<ModelFactor> factors;
+  std::vector<int> observed(landmarks.size(), 0);
+  for (int i = 0; i < o.poses; ++i) {
+    const Pose x = truePose(o, i);
+    if (i > 0) factors.push_back(betweenFactor(o, random, i - 1, i, truePose(o, i - 1), x));
+    if (i >= per_lap && random.uniform() < o.loop_probability) {
+      factors.push_back(betweenFactor(o, random, i - per_lap, i, truePose(o, i - per_lap), x));
+    }
+    if (random.uniform() >= o.observation_probability) continue;
+    std::vector<std::pair<double, int>> in_range;  // (distance, landmark), nearest first
+    for (std::size_t k = 0; k < landmarks.size(); ++k) {
+      const double d = (landmarks[k] - x.t).norm();
+      if (d <= o.sensor_range) in_range.emplace_back(d, static_cast<int>(k));
+    }
+    std::sort(in_range.begin(), in_range.end());
+    const std::size_t n =
+        std::min(in_range.size(), static_cast<std::size_t>(o.max_observations_per_pose));
+    for (std::size_t m = 0; m < n; ++m) {
+      const int k = in_range[m].second;
+      ModelFactor f;
+      f.kind = FactorKind::PointXYZ3;
+      f.first = {VariableRole::Pose, i};
+      f.second = {VariableRole::Landmark, k};
+      f.measurement = x.q.conjugate() * (landmarks[k] - x.t) + normal3(random, o.sigma_point);
+      f.information = Eigen::MatrixXd::Identity(3, 3) / (o.sigma_point * o.sigma_point);
+      factors.push_back(f);
+      ++observed[k];
+    }
+  }
+
+  // Keep landmarks seen at least twice, renumbered after the poses in order of first observation.
+  ModelDataset d;
+  d.name = "synthetic-landmarks-3d";
+  d.format = DatasetFormat::G2o;
+  d.convention = ObjectiveConvention::G2o;
+  d.dimension = 3;
+  std::map<int, std::int64_t> id_of;
+  for (ModelFactor& f : factors) {
+    if (f.kind == FactorKind::PointXYZ3) {
+      const int k = static_cast<int>(f.second.id);
+      if (observed[k] < 2) continue;
+      const auto it = id_of.emplace(k, o.poses + static_cast<std::int64_t>(id_of.size())).first;
+      f.second.id = it->second;
+    }
+    d.factors.push_back(f);
+  }
+
+  // Vertices: the dead-reckoning initial estimate, poses then landmarks by id.
+  const ModelEstimate initial = initialEstimate(d);
+  for (int i = 0; i < o.poses; ++i) {
+    const VariableKey key{VariableRole::Pose, i};
+    d.vertices.push_back({key, VariableKind::SE3, initial.at(key), 0});
+  }
+  for (std::size_t k = 0; k < id_of.size(); ++k) {
+    const VariableKey key{VariableRole::Landmark, o.poses + static_cast<std::int64_t>(k)};
+    d.vertices.push_back({key, VariableKind::Point3, initial.at(key), 0});
+  }
+  return d;
+}
+
+}  // namespace lslam::sim
