@@ -6,10 +6,14 @@ namespace lslam::sim {
 
 int tangentDimension(VariableKind kind) {
   switch (kind) {
-    case VariableKind::SE2: return 3;
-    case VariableKind::Point2: return 2;
-    case VariableKind::SE3: return 6;
-    case VariableKind::Point3: return 3;
+    case VariableKind::SE2:
+      return 3;
+    case VariableKind::Point2:
+      return 2;
+    case VariableKind::SE3:
+      return 6;
+    case VariableKind::Point3:
+      return 3;
   }
   std::abort();
 }
@@ -20,25 +24,38 @@ int parameterCount(VariableKind kind) {
 
 const char* variableKindName(VariableKind kind) {
   switch (kind) {
-    case VariableKind::SE2: return "SE2";
-    case VariableKind::Point2: return "Point2";
-    case VariableKind::SE3: return "SE3";
-    case VariableKind::Point3: return "Point3";
+    case VariableKind::SE2:
+      return "SE2";
+    case VariableKind::Point2:
+      return "Point2";
+    case VariableKind::SE3:
+      return "SE3";
+    case VariableKind::Point3:
+      return "Point3";
   }
   std::abort();
 }
 
 const char* factorKindName(FactorKind kind) {
   switch (kind) {
-    case FactorKind::PriorSE2: return "PriorSE2";
-    case FactorKind::BetweenSE2: return "BetweenSE2";
-    case FactorKind::PriorPoint2: return "PriorPoint2";
-    case FactorKind::PointXY2: return "PointXY2";
-    case FactorKind::RangeBearing2: return "RangeBearing2";
-    case FactorKind::PriorSE3: return "PriorSE3";
-    case FactorKind::BetweenSE3: return "BetweenSE3";
-    case FactorKind::PriorPoint3: return "PriorPoint3";
-    case FactorKind::PointXYZ3: return "PointXYZ3";
+    case FactorKind::PriorSE2:
+      return "PriorSE2";
+    case FactorKind::BetweenSE2:
+      return "BetweenSE2";
+    case FactorKind::PriorPoint2:
+      return "PriorPoint2";
+    case FactorKind::PointXY2:
+      return "PointXY2";
+    case FactorKind::RangeBearing2:
+      return "RangeBearing2";
+    case FactorKind::PriorSE3:
+      return "PriorSE3";
+    case FactorKind::BetweenSE3:
+      return "BetweenSE3";
+    case FactorKind::PriorPoint3:
+      return "PriorPoint3";
+    case FactorKind::PointXYZ3:
+      return "PointXYZ3";
   }
   std::abort();
 }
@@ -46,14 +63,18 @@ const char* factorKindName(FactorKind kind) {
 int errorDimension(FactorKind kind) {
   switch (kind) {
     case FactorKind::PriorSE2:
-    case FactorKind::BetweenSE2: return 3;
+    case FactorKind::BetweenSE2:
+      return 3;
     case FactorKind::PriorPoint2:
     case FactorKind::PointXY2:
-    case FactorKind::RangeBearing2: return 2;
+    case FactorKind::RangeBearing2:
+      return 2;
     case FactorKind::PriorSE3:
-    case FactorKind::BetweenSE3: return 6;
+    case FactorKind::BetweenSE3:
+      return 6;
     case FactorKind::PriorPoint3:
-    case FactorKind::PointXYZ3: return 3;
+    case FactorKind::PointXYZ3:
+      return 3;
   }
   std::abort();
 }
@@ -63,8 +84,10 @@ int arity(FactorKind kind) {
     case FactorKind::PriorSE2:
     case FactorKind::PriorPoint2:
     case FactorKind::PriorSE3:
-    case FactorKind::PriorPoint3: return 1;
-    default: return 2;
+    case FactorKind::PriorPoint3:
+      return 1;
+    default:
+      return 2;
   }
 }
 

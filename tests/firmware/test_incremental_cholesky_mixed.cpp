@@ -132,8 +132,8 @@ class MixedSource final : public lslam::InformationSource<S...> {
 template <int... S>
 struct Harness {
   using Chol = lslam::IncrementalCholesky<S...>;
-  using Storage = lslam::StaticCholeskyStorageFor<lslam::BlockSizes<S...>, kMaxColumns,
-                                                  kMaxBlocks, kMaxValues>;
+  using Storage =
+      lslam::StaticCholeskyStorageFor<lslam::BlockSizes<S...>, kMaxColumns, kMaxBlocks, kMaxValues>;
   static lslam::CholeskyArrays<S...> arraysOf(Storage& s, const std::uint8_t* kinds) {
     lslam::CholeskyArrays<S...> a = s.arrays();
     a.variable_kind = kinds;
@@ -209,8 +209,7 @@ struct Harness {
     Eigen::VectorXd p_eta(off.back());
     for (std::size_t k = 0; k < variable_at.size(); ++k)
       p_eta.segment(off[k], source.width(variable_at[k])) =
-          source.committed_eta.segment(source.offset(variable_at[k]),
-                                       source.width(variable_at[k]));
+          source.committed_eta.segment(source.offset(variable_at[k]), source.width(variable_at[k]));
     Eigen::MatrixXd l;
     Eigen::VectorXd d;
     denseFactor(l, d);
@@ -240,8 +239,7 @@ struct Harness {
   // Dense solution of Lambda x = eta per variable, against the factor's back-substitution.
   void checkSolve(bool full) {
     std::vector<Index> visited(variable_at.size());
-    chol.backSubstitute(delta.data(), variable_at.data(), full ? 0.0 : 1e-12, full,
-                        visited.data());
+    chol.backSubstitute(delta.data(), variable_at.data(), full ? 0.0 : 1e-12, full, visited.data());
     const Eigen::VectorXd x = source.committed_lambda.llt().solve(source.committed_eta);
     for (Index v = 0; v < source.size(); ++v) {
       const int w = source.width(v);

@@ -69,10 +69,10 @@ struct ModelVertex {
 
 struct ModelFactor {
   FactorKind kind = FactorKind::BetweenSE2;
-  VariableKey first;                  // the pose of a two-variable factor, or the prior's variable
-  VariableKey second;                 // unused for a prior
-  Eigen::VectorXd measurement;        // in the parameters of the predicted value (see above)
-  Eigen::MatrixXd information;        // errorDimension x errorDimension, always the information
+  VariableKey first;            // the pose of a two-variable factor, or the prior's variable
+  VariableKey second;           // unused for a prior
+  Eigen::VectorXd measurement;  // in the parameters of the predicted value (see above)
+  Eigen::MatrixXd information;  // errorDimension x errorDimension, always the information
   std::size_t line = 0;
 };
 

@@ -73,8 +73,7 @@ class ColumnAccumulator {
       static_cast<void>(cols);
       return (blocks_[slot]);
     } else {
-      using Matrix =
-          Eigen::Matrix<double, Derived::RowsAtCompileTime, Derived::ColsAtCompileTime>;
+      using Matrix = Eigen::Matrix<double, Derived::RowsAtCompileTime, Derived::ColsAtCompileTime>;
       return Eigen::Map<Matrix>(values_ + offset_[slot], rows, cols);
     }
   }
