@@ -119,25 +119,6 @@ void visitHostKind(FactorKind kind, Fn&& fn) {
   }
 }
 
-template <class Model>
-ModelFactorInput<Model> toFactorInput(const ModelDataset& d, const ModelFactor& f) {
-  ModelFactorInput<Model> in;
-  visitHostKind<Model>(f.kind, [&](auto* tag) {
-    using F = std::remove_pointer_t<decltype(tag)>;
-    using M = typename F::Measurement;
-    constexpr int kE = F::kErrorDim;
-    M z;
-    if constexpr (std::is_same_v<M, Vec2> || std::is_same_v<M, Vec3>) {
-      z = f.measurement;  // a position in the robot frame, or (range, bearing)
-    } else {
-      z = toValue<M>(f.measurement);
-    }
-    const Eigen::Matrix<double, kE, kE> info = solverInformation(d, f);
-    in = ModelFactorInput<Model>::template make<F>(f.first.id, f.second.id, z, info);
-  });
-  return in;
-}
-
 // ---- Steps -----------------------------------------------------------------------------------
 
 // A step is odometry when its only between factor links the new pose to the pose introduced just
@@ -227,7 +208,8 @@ class Runner {
       variables.clear();
       introduce(*solver, step, variables, out.initial);
       factors.clear();
-      for (std::size_t k : step.factors) factors.push_back(toFactorInput<Model>(d_, d_.factors[k]));
+      for (std::size_t k : step.factors)
+        factors.push_back(modelFactorInput<Model>(d_, d_.factors[k]));
 
       StepRecord record;
       record.index = s;
@@ -289,12 +271,12 @@ class Runner {
       const Eigen::VectorXd value = initialValue(d_, step, step.new_pose, current);
       current[step.new_pose] = value;
       initial[step.new_pose] = value;
-      variables.push_back(Variable::template make<Pose>(step.new_pose.id, toValue<Pose>(value)));
+      variables.push_back(modelVariableInput<Model>(step.new_pose, value));
     }
     for (const VariableKey& key : step.new_landmarks) {
       const Eigen::VectorXd value = initialValue(d_, step, key, current);
       initial[key] = value;
-      variables.push_back(Variable::template make<Landmark>(key.id, toValue<Landmark>(value)));
+      variables.push_back(modelVariableInput<Model>(key, value));
     }
   }
 
@@ -320,6 +302,50 @@ Vector7d composeSE3(const Vector7d& a, const Vector7d& b) {
 }
 
 }  // namespace
+
+template <class Model>
+ModelVariableInput<Model> modelVariableInput(const VariableKey& key, const Eigen::VectorXd& value) {
+  using Pose = TypeAtT<0, typename Model::Variables>;
+  using Landmark = TypeAtT<Model::Variables::kSize - 1, typename Model::Variables>;
+  if (key.role == VariableRole::Pose) {
+    return ModelVariableInput<Model>::template make<Pose>(key.id, toValue<Pose>(value));
+  }
+  if constexpr (Model::Variables::kSize == 1) {
+    throw std::invalid_argument("a landmark in a model without landmarks");
+  } else {
+    return ModelVariableInput<Model>::template make<Landmark>(key.id, toValue<Landmark>(value));
+  }
+}
+
+template <class Model>
+ModelFactorInput<Model> modelFactorInput(const ModelDataset& d, const ModelFactor& f) {
+  ModelFactorInput<Model> in;
+  visitHostKind<Model>(f.kind, [&](auto* tag) {
+    using F = std::remove_pointer_t<decltype(tag)>;
+    using M = typename F::Measurement;
+    constexpr int kE = F::kErrorDim;
+    M z;
+    if constexpr (std::is_same_v<M, Vec2> || std::is_same_v<M, Vec3>) {
+      z = f.measurement;  // a position in the robot frame, or (range, bearing)
+    } else {
+      z = toValue<M>(f.measurement);
+    }
+    const Eigen::Matrix<double, kE, kE> info = solverInformation(d, f);
+    in = ModelFactorInput<Model>::template make<F>(f.first.id, f.second.id, z, info);
+  });
+  return in;
+}
+
+template ModelVariableInput<Slam2D> modelVariableInput<Slam2D>(const VariableKey&,
+                                                               const Eigen::VectorXd&);
+template ModelVariableInput<Slam3D> modelVariableInput<Slam3D>(const VariableKey&,
+                                                               const Eigen::VectorXd&);
+template ModelVariableInput<PoseSlam3D> modelVariableInput<PoseSlam3D>(const VariableKey&,
+                                                                       const Eigen::VectorXd&);
+template ModelFactorInput<Slam2D> modelFactorInput<Slam2D>(const ModelDataset&, const ModelFactor&);
+template ModelFactorInput<Slam3D> modelFactorInput<Slam3D>(const ModelDataset&, const ModelFactor&);
+template ModelFactorInput<PoseSlam3D> modelFactorInput<PoseSlam3D>(const ModelDataset&,
+                                                                   const ModelFactor&);
 
 bool isPoseGraph2D(const ModelDataset& d) {
   if (d.dimension != 2) return false;

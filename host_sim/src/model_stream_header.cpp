@@ -100,16 +100,9 @@ void checkModel(const ModelDataset& d) {
   }
 }
 
-// As model_run.cpp's toValue: the solver takes unit quaternions.
-SE3 toSE3(const Eigen::VectorXd& p) {
-  const Eigen::Quaterniond q = Eigen::Quaterniond(p(6), p(3), p(4), p(5)).normalized();
-  return SE3(SO3(q), p.head<3>());
-}
-
 std::string variableLine(const VariableKey& key, const Eigen::VectorXd& value) {
   const bool pose = key.role == VariableRole::Pose;
-  const VariableIn in = pose ? VariableIn::make<SE3>(key.id, toSE3(value))
-                             : VariableIn::make<Point3>(key.id, Point3(Vec3(value)));
+  const VariableIn in = modelVariableInput<Slam3D>(key, value);
   return "    {" + std::string(pose ? "0" : "1") + ", " + id(key.id) + ", " +
          numbers(in.value, pose ? 7 : 3) + "},\n";
 }
@@ -132,19 +125,14 @@ std::string upperTriangle(const FactorIn& in) {
   return numbers(upper, n);
 }
 
-// As model_run.cpp's toFactorInput for the two kinds of the stream.
+// The stream's kind (0: BetweenSE3, 1: PointXYZ3) and the solver's input, as runModelIncremental
+// builds it.
 std::string factorLine(const ModelDataset& d, const ModelFactor& f) {
-  const Eigen::MatrixXd info = solverInformation(d, f);
-  if (f.kind == FactorKind::BetweenSE3) {
-    const FactorIn in = FactorIn::make<BetweenSE3Factor>(
-        f.first.id, f.second.id, toSE3(f.measurement), Eigen::Matrix<double, 6, 6>(info));
-    return "    {0, {" + id(f.first.id) + ", " + id(f.second.id) + "}, " +
-           numbers(in.measurement, 7) + ", " + upperTriangle<6>(in) + "},\n";
-  }
-  const FactorIn in = FactorIn::make<PointObservationSE3Factor>(
-      f.first.id, f.second.id, Vec3(f.measurement), Eigen::Matrix3d(info));
-  return "    {1, {" + id(f.first.id) + ", " + id(f.second.id) + "}, " +
-         numbers(in.measurement, 3) + ", " + upperTriangle<3>(in) + "},\n";
+  const FactorIn in = modelFactorInput<Slam3D>(d, f);
+  const bool between = f.kind == FactorKind::BetweenSE3;
+  return "    {" + std::string(between ? "0" : "1") + ", {" + id(f.first.id) + ", " +
+         id(f.second.id) + "}, " + numbers(in.measurement, between ? 7 : 3) + ", " +
+         (between ? upperTriangle<6>(in) : upperTriangle<3>(in)) + "},\n";
 }
 
 std::string stepArrays(const ModelDataset& d, const std::vector<ModelStep>& steps,

@@ -59,6 +59,13 @@ Index posePriors(const ModelFactorInput<Model>* factors, Index num_factors) {
   return priors;
 }
 
+// The factorization work of an iteration, added to the call's.
+void addWork(UpdateResult& into, const UpdateResult& step) {
+  into.variables_relinearized += step.variables_relinearized;
+  into.columns_refactored += step.columns_refactored;
+  into.block_products += step.block_products;
+}
+
 }  // namespace
 
 template <class Model>
@@ -192,9 +199,7 @@ void Smoother<Model>::solve(bool full, UpdateResult* result) {
     backSubstitute(full, result);
     if (result == nullptr) continue;
     result->iterations = i + 1;
-    result->variables_relinearized += step.variables_relinearized;
-    result->columns_refactored += step.columns_refactored;
-    result->block_products += step.block_products;
+    addWork(*result, step);
     result->reordered = result->reordered || step.reordered;
     result->refactored_fully = result->refactored_fully || step.refactored_fully;
     result->factor_blocks = step.factor_blocks;
@@ -251,9 +256,7 @@ Status Smoother<Model>::optimize(Index max_iterations, double tolerance, UpdateR
     relinearization_.clearCandidates();
     solve(true, nullptr);
     r.iterations = it + 1;
-    r.variables_relinearized += step.variables_relinearized;
-    r.columns_refactored += step.columns_refactored;
-    r.block_products += step.block_products;
+    addWork(r, step);
   }
   r.factor_blocks = cholesky_.liveBlocks();
   return Status::Ok;

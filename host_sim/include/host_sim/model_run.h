@@ -16,6 +16,7 @@
 #include "host_sim/incremental_run.h"
 #include "host_sim/model_chi2.h"
 #include "host_sim/model_dataset.h"
+#include "lslam/solver/model_inputs.h"
 
 namespace lslam::sim {
 
@@ -48,6 +49,15 @@ ModelRun runModelIncremental(const ModelDataset& d, const IncrementalOptions& op
 // BetweenSE3 and PriorSE3 in the Isam convention J^T Omega J with J the derivative of iSAM's
 // error with respect to g2o's at zero error, by central differences about the measurement.
 Eigen::MatrixXd solverInformation(const ModelDataset& d, const ModelFactor& f);
+
+// The solver's inputs for a variable (its value in the kind's parameters; an SE3 quaternion is
+// normalised, the solver takes unit ones) and for a factor of `d` (its measurement, and
+// solverInformation), as runModelIncremental hands them over. Compiled for Slam2D, Slam3D and
+// PoseSlam3D; std::invalid_argument for a kind the model has not.
+template <class Model>
+ModelVariableInput<Model> modelVariableInput(const VariableKey& key, const Eigen::VectorXd& value);
+template <class Model>
+ModelFactorInput<Model> modelFactorInput(const ModelDataset& d, const ModelFactor& f);
 
 // The solver options the model `d` runs on start from (lslam::defaultSolverOptions of the model
 // runModelIncremental picks: Slam2D, Slam3D or PoseSlam3D).
