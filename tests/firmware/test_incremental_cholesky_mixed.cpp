@@ -89,6 +89,24 @@ class MixedSource final : public lslam::InformationSource<S...> {
     neighbours[static_cast<std::size_t>(b)].insert(a);
   }
 
+  // A factor given as its whitened rows (the row update's form): rows_t[i] holds A_i^T in its
+  // top-left width(vars[i]) x m corner, b its first m entries; Lambda += A^T A, eta += A^T b.
+  template <class Block, class Vector>
+  void addRows(const std::vector<Index>& vars, const std::vector<Block>& rows_t, const Vector& b,
+               int m) {
+    for (std::size_t p = 0; p < vars.size(); ++p) {
+      const Index vp = vars[p];
+      const Eigen::MatrixXd ap = rows_t[p].topLeftCorner(width(vp), m);
+      for (std::size_t q = 0; q < vars.size(); ++q) {
+        const Index vq = vars[q];
+        lambda.block(offset(vp), offset(vq), width(vp), width(vq)) +=
+            ap * rows_t[q].topLeftCorner(width(vq), m).transpose();
+      }
+      eta.segment(offset(vp), width(vp)) += ap * b.head(m);
+      for (Index vq : vars) neighbours[static_cast<std::size_t>(vp)].insert(vq);
+    }
+  }
+
   void visitNeighbours(Index v, lslam::NeighbourVisitor& visitor) const override {
     for (Index u : neighbours[static_cast<std::size_t>(v)]) {
       if (u != v) visitor.visit(u);
@@ -360,6 +378,113 @@ void runReordered(unsigned seed) {
 TEST_CASE("mixed block sizes: the reordered update of the affected top equals dense LLT") {
   for (unsigned seed = 100; seed < 110; ++seed) runReordered<3, 2>(seed);
   for (unsigned seed = 100; seed < 105; ++seed) runReordered<6, 3>(seed);
+}
+
+// Row updates at mixed sizes: each step adds a variable of a random kind and factors given as
+// whitened rows (random error sizes among the model's, so a factor's rows are often narrower than
+// the widest block), one at a time or two together, on the added column and on random older ones
+// (loop closures into the grown factor); recomputing updates and compactions in between. The
+// factor must equal the dense LLT of the accumulated A^T A, and the solve its dense solution.
+template <int... S>
+void runRowUpdates(unsigned seed) {
+  CAPTURE(seed);
+  using Chol = lslam::IncrementalCholesky<S...>;
+  using Block = typename Chol::Block;
+  using Vector = typename Chol::Vector;
+  using Sizes = lslam::BlockSizes<S...>;
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  auto h = std::make_unique<Harness<S...>>();
+  struct Held {
+    std::vector<Index> vars;
+    std::vector<Index> positions;
+    std::vector<Block> rows_t;
+    typename Chol::FactorRows rows;
+  };
+  std::vector<std::unique_ptr<Held>> held;
+  // A random factor of a random error size on `vars`, added to the dense source.
+  auto factor = [&](std::vector<Index> vars) -> const typename Chol::FactorRows& {
+    held.push_back(std::make_unique<Held>());
+    Held& f = *held.back();
+    f.vars = std::move(vars);
+    const int m = Sizes::sizeOfKind(std::uniform_int_distribution<int>(0, Sizes::kCount - 1)(rng));
+    for (Index v : f.vars) {
+      Block b = Block::Zero();
+      for (int r = 0; r < h->source.width(v); ++r) {
+        for (int c = 0; c < m; ++c) b(r, c) = u(rng) + (r == c ? 2.0 : 0.0);
+      }
+      f.rows_t.push_back(b);
+      f.positions.push_back(h->position_of[static_cast<std::size_t>(v)]);
+    }
+    Vector rhs = Vector::Zero();
+    for (int r = 0; r < m; ++r) rhs(r) = u(rng);
+    h->source.addRows(f.vars, f.rows_t, rhs, m);
+    f.rows = {f.positions.data(), f.rows_t.data(), static_cast<Index>(f.vars.size()), rhs};
+    return f.rows;
+  };
+  auto older = [&](Index v) { return std::uniform_int_distribution<Index>(0, v - 1)(rng); };
+  int pairs = 0;
+  for (Index step = 0; step < 50; ++step) {
+    const Index v = h->addVariable(rng);
+    // Each added column needs a full-rank block: a prior as wide as the variable.
+    h->chol.beginUpdate(1, false, h->variable_at.data());
+    const int arrangement = v < 3 ? 0 : std::uniform_int_distribution<int>(0, 3)(rng);
+    auto prior = [&] {
+      held.push_back(std::make_unique<Held>());
+      Held& f = *held.back();
+      f.vars = {v};
+      f.positions = {h->position_of[static_cast<std::size_t>(v)]};
+      Block b = Block::Zero();
+      for (int r = 0; r < h->source.width(v); ++r) {
+        for (int c = 0; c < h->source.width(v); ++c) b(r, c) = u(rng) + (r == c ? 3.0 : 0.0);
+      }
+      f.rows_t = {b};
+      Vector rhs = Vector::Zero();
+      for (int r = 0; r < h->source.width(v); ++r) rhs(r) = u(rng);
+      h->source.addRows(f.vars, f.rows_t, rhs, h->source.width(v));
+      f.rows = {f.positions.data(), f.rows_t.data(), 1, rhs};
+      return f.rows;
+    };
+    REQUIRE(h->chol.addFactorRows(prior()) == Status::Ok);
+    if (v > 0) REQUIRE(h->chol.addFactorRows(factor({v - 1, v})) == Status::Ok);
+    if (arrangement == 1) {
+      REQUIRE(h->chol.addFactorRows(factor({older(v), v})) == Status::Ok);
+    } else if (arrangement == 2) {
+      const auto& first = factor({older(v), v});
+      REQUIRE(h->chol.addFactorRows(first, factor({older(v), v})) == Status::Ok);
+      ++pairs;
+    } else if (arrangement == 3) {
+      const Index a = older(v);
+      const Index b = older(v);
+      const auto& first = factor(a == b ? std::vector<Index>{a} : std::vector<Index>{a, b});
+      REQUIRE(h->chol.addFactorRows(first, factor({older(v)})) == Status::Ok);
+      ++pairs;
+    }
+    REQUIRE(h->chol.finishRowUpdate() == Status::Ok);
+    h->chol.commit();
+    h->source.commit();
+    held.clear();
+    h->checkAgainstDense();
+    if (step % 5 == 2) {
+      // A recomputing update in between (a relinearization's path), as the solver mixes them.
+      const std::vector<Index> touched = h->grow(rng);
+      h->chol.beginUpdate(1, false, h->variable_at.data());
+      for (Index t : touched) h->chol.markChanged(h->position_of[static_cast<std::size_t>(t)]);
+      REQUIRE(h->chol.factorize(h->source, h->variable_at.data(), h->position_of.data()) ==
+              Status::Ok);
+      h->chol.commit();
+      h->source.commit();
+      h->checkAgainstDense();
+    }
+    if (step % 7 == 3) h->chol.compact();
+    h->checkSolve(step % 2 == 0);
+  }
+  CHECK(pairs > 5);
+}
+
+TEST_CASE("mixed block sizes: row updates (one factor, two together) equal dense LLT") {
+  for (unsigned seed = 300; seed < 310; ++seed) runRowUpdates<3, 2>(seed);
+  for (unsigned seed = 300; seed < 306; ++seed) runRowUpdates<6, 3>(seed);
 }
 
 template <int... S>

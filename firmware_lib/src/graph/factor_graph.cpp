@@ -253,49 +253,56 @@ double FactorGraph<Model>::factorChi2(Index f) const {
   return result;
 }
 
+// Writes the D x kErrorDim block J^T L into the top-left corner of a kMax x kMax one, zero
+// elsewhere (the whole block when both are kMax).
+template <int D, int E, int kMax, class Jacobian, class Factor>
+inline void writeRows(const Jacobian& j, const Factor& l, Eigen::Matrix<double, kMax, kMax>& out) {
+  if constexpr (D == kMax && E == kMax) {
+    out.noalias() = j.transpose() * l;
+  } else {
+    out.setZero();
+    out.template topLeftCorner<D, E>().noalias() = j.transpose() * l;
+  }
+}
+
 template <class Model>
 Index FactorGraph<Model>::whitenedRows(Index f, const Index* position, Index* positions,
                                        RowBlock* rows_transposed, Delta* rhs) const {
-  if constexpr (kWhitenedRows) {
-    Index count = 0;
-    visitKind<Factors>(a_.factor_kind[f], [&](auto* tag) {
-      using F = std::remove_pointer_t<decltype(tag)>;
-      using A = TypeAtT<0, typename F::Variables>;
-      const double* values = factorValues(f);
-      // Omega = L L^T (checked positive definite on input): the rows are L^T J.
-      const Omega<F> l = Eigen::LLT<Omega<F>>(informationAt<F>(factorInformation(f))).matrixL();
-      const Index first = a_.first_variable[f];
-      const A xa = StoredValue<A>::load(valuesOf(first, false));
-      Matrix<F::kErrorDim, A::kDof> ja;
-      Matrix<F::kErrorDim, 1> e;
-      positions[0] = position[first];
-      if constexpr (F::Variables::kSize == 1) {
-        e = F::error(xa, measurementAt<F>(values), &ja);
-        count = 1;
-      } else {
-        using B = TypeAtT<1, typename F::Variables>;
-        const Index second = a_.second_variable[f];
-        const B xb = StoredValue<B>::load(valuesOf(second, false));
-        Matrix<F::kErrorDim, B::kDof> jb;
-        e = F::error(xa, xb, measurementAt<F>(values), &ja, &jb);
-        positions[1] = position[second];
-        rows_transposed[1].noalias() = jb.transpose() * l;
-        count = 2;
-      }
-      rows_transposed[0].noalias() = ja.transpose() * l;
+  Index count = 0;
+  visitKind<Factors>(a_.factor_kind[f], [&](auto* tag) {
+    using F = std::remove_pointer_t<decltype(tag)>;
+    using A = TypeAtT<0, typename F::Variables>;
+    constexpr int E = F::kErrorDim;
+    const double* values = factorValues(f);
+    // Omega = L L^T (checked positive definite on input): the rows are L^T J.
+    const Omega<F> l = Eigen::LLT<Omega<F>>(informationAt<F>(factorInformation(f))).matrixL();
+    const Index first = a_.first_variable[f];
+    const A xa = StoredValue<A>::load(valuesOf(first, false));
+    Matrix<E, A::kDof> ja;
+    Matrix<E, 1> e;
+    positions[0] = position[first];
+    if constexpr (F::Variables::kSize == 1) {
+      e = F::error(xa, measurementAt<F>(values), &ja);
+      count = 1;
+    } else {
+      using B = TypeAtT<1, typename F::Variables>;
+      const Index second = a_.second_variable[f];
+      const B xb = StoredValue<B>::load(valuesOf(second, false));
+      Matrix<E, B::kDof> jb;
+      e = F::error(xa, xb, measurementAt<F>(values), &ja, &jb);
+      positions[1] = position[second];
+      writeRows<B::kDof, E, kMax>(jb, l, rows_transposed[1]);
+      count = 2;
+    }
+    writeRows<A::kDof, E, kMax>(ja, l, rows_transposed[0]);
+    if constexpr (E == kMax) {
       rhs->noalias() = -(l.transpose() * e);
-    });
-    return count;
-  } else {
-    // Never called: the solver takes the row update only where kWhitenedRows holds.
-    static_cast<void>(f);
-    static_cast<void>(position);
-    static_cast<void>(positions);
-    static_cast<void>(rows_transposed);
-    static_cast<void>(rhs);
-    LSLAM_ASSERT(false);
-    return 0;
-  }
+    } else {
+      rhs->setZero();
+      rhs->template head<E>().noalias() = -(l.transpose() * e);
+    }
+  });
+  return count;
 }
 
 template <class Model>

@@ -27,7 +27,8 @@ IncrementalCholesky<S...>::IncrementalCholesky(const CholeskyArrays<S...>& array
 }
 
 template <int... S>
-void IncrementalCholesky<S...>::beginUpdate(Index new_columns, bool full_refactor) {
+void IncrementalCholesky<S...>::beginUpdate(Index new_columns, bool full_refactor,
+                                            const Index* variable_at) {
   LSLAM_ASSERT(!in_update_);
   LSLAM_ASSERT(new_columns >= 0 && n_ + new_columns <= a_.max_columns);
   if (layout_pending_) layoutForSolve();
@@ -46,6 +47,7 @@ void IncrementalCholesky<S...>::beginUpdate(Index new_columns, bool full_refacto
   reordered_ = false;
   top_collected_ = false;
   row_update_mark_ = 0;
+  staging_variable_at_ = variable_at;
   stats_ = FactorizationStats{};
   if (full_) {
     // Every column is affected and is taken in ascending order: no queue (see factorize).
@@ -656,7 +658,7 @@ bool IncrementalCholesky<S...>::solveColumn(Index k, double tolerance, Vector& d
 #define LSLAM_INSTANTIATE_CORE(...)                                                              \
   template IncrementalCholesky<__VA_ARGS__>::IncrementalCholesky(                                \
       const CholeskyArrays<__VA_ARGS__>&);                                                       \
-  template void IncrementalCholesky<__VA_ARGS__>::beginUpdate(Index, bool);                      \
+  template void IncrementalCholesky<__VA_ARGS__>::beginUpdate(Index, bool, const Index*);        \
   template void IncrementalCholesky<__VA_ARGS__>::markChanged(Index);                            \
   template void IncrementalCholesky<__VA_ARGS__>::keepUnchangedStructures();                     \
   template void IncrementalCholesky<__VA_ARGS__>::markStructureChanged(Index);                   \

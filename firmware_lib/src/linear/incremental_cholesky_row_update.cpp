@@ -13,6 +13,7 @@
 // The right-hand side rides along as one more row: L d = eta is the last row of the Cholesky
 // factor of [Lambda eta; eta^T .], so [d(k)^T b^T] Q = [d'(k)^T b'^T] updates d on the same path.
 #include <cmath>
+#include <cstring>
 
 #include "lower_triangular.h"
 #include "lslam/linear/block_kernels.h"
@@ -21,28 +22,31 @@
 namespace lslam {
 namespace {
 
-// The D Householder reflections H_j = I - beta_j v_j v_j^T ((M + 1) D square) with
-// [l w_0 .. w_{M-1}] H_0 ... H_{D-1} = [l' 0 .. 0], l' lower-triangular with a positive diagonal,
-// for l lower-triangular (D x D, possibly zero for an added column) and the M factors' blocks w_m
-// (D x D each). H_j zeroes row j right of the diagonal (Golub & Van Loan 5.1.1, sign chosen so
-// that the kept entry is +norm). Entries of row j right of the diagonal within l are still zero
-// when H_j is formed (H_0 .. H_{j-1} only mix l's columns 0 .. j-1 with w), so v_j = e_j +
-// [0; u_0j; ..]: applying H_j to a row costs 2 M D + 2 multiply-adds, against 2 (M + 1) D for the
-// row times an explicit Q, which is why the reflections are kept in this factored form.
-template <int D, int M>
+// The C Householder reflections H_j = I - beta_j v_j v_j^T (C + M W square) with
+// [l w_0 .. w_{M-1}] H_0 ... H_{C-1} = [l' 0 .. 0], l' lower-triangular with a positive diagonal,
+// for l lower-triangular (C x C, possibly zero for an added column) and the M factors' blocks w_m
+// (C x W each: a factor's W rows, zero beyond its own). H_j zeroes row j right of the diagonal
+// (Golub & Van Loan 5.1.1, sign chosen so that the kept entry is +norm). Entries of row j right of
+// the diagonal within l are still zero when H_j is formed (H_0 .. H_{j-1} only mix l's columns
+// 0 .. j-1 with w), so v_j = e_j + [0; u_0j; ..]: applying H_j to a row costs 2 M W + 2
+// multiply-adds, against 2 (C + M W) for the row times an explicit Q, which is why the reflections
+// are kept in this factored form. One block size D: C = W = D. K: the kernels' multiply-add kind
+// (detail::multiplyAdd; 0 for mixed sizes, which have no second form to match).
+template <int C, int W, int M, int K = C>
 struct RowReflections {
-  Eigen::Matrix<double, D, D> u[M];  // u[m].col(j): factor m's part of v_j
-  Eigen::Matrix<double, D, 1> beta;
+  Eigen::Matrix<double, W, C> u[M];  // u[m].col(j): factor m's part of v_j
+  Eigen::Matrix<double, C, 1> beta;
 
-  // [x_l x_w[0] ..] H_0 ... H_{D-1} for the rows of x_l (any count), in place.
+  // [x_l x_w[0] ..] H_0 ... H_{C-1} for the rows of x_l (any count), in place.
   template <typename XL, typename XW>
   void apply(XL& x_l, XW* const* x_w) const {
-    detail::applyRowReflections<D, M>(u, beta, x_l, x_w);
+    detail::applyReflectionsToRows<C, W, M, K>(u, beta, x_l, x_w);
   }
   // The same on one row (the right-hand side's), through the AVX2/FMA-compiled form on hosts that
   // have it: outside such a function std::fma is a call into libm on x86-64. The same bits.
-  void applyToRow(Eigen::Matrix<double, 1, D>& x_l, Eigen::Matrix<double, 1, D>* const* x_w) const {
-    if constexpr (detail::kAvxForms<D>) {
+  template <typename XW>
+  void applyToRow(Eigen::Matrix<double, 1, C>& x_l, XW* const* x_w) const {
+    if constexpr (C == W && K == C && detail::kAvxForms<C>) {
       if (detail::cpuHasAvxFma()) {
         detail::applyRowReflectionsToRowAvx<M>(u, beta, x_l, x_w);
         return;
@@ -56,7 +60,7 @@ struct RowReflections {
 // w[m][r]: L(r, k) is source_blocks[b] for b < kept and source_blocks[source[b]] beyond (zero
 // where that is kNoIndex). In place: source_blocks == blocks, kept == size.
 template <int D, int M>
-void reflectRows(const RowReflections<D, M>& h, const Eigen::Matrix<double, D, D>* source_blocks,
+void reflectRows(const RowReflections<D, D, M>& h, const Eigen::Matrix<double, D, D>* source_blocks,
                  const Index* source, Index kept, Eigen::Matrix<double, D, D>* blocks,
                  const Index* rows, Index size, Eigen::Matrix<double, D, D>* const* w) {
   if constexpr (detail::kAvxForms<D>) {
@@ -82,11 +86,11 @@ void reflectRows(const RowReflections<D, M>& h, const Eigen::Matrix<double, D, D
 
 // Returns false if a diagonal entry of l' is not positive and finite (w and l together do not
 // have full rank). Works on w in place.
-template <int D, int M>
-bool triangularizeRows(const Eigen::Matrix<double, D, D>& l, Eigen::Matrix<double, D, D>* m_w,
-                       Eigen::Matrix<double, D, D>& l_new, RowReflections<D, M>& h) {
-  Eigen::Matrix<double, D, D> m_l = l;
-  for (int j = 0; j < D; ++j) {
+template <int C, int W, int M, int K>
+bool triangularizeRows(const Eigen::Matrix<double, C, C>& l, Eigen::Matrix<double, C, W>* m_w,
+                       Eigen::Matrix<double, C, C>& l_new, RowReflections<C, W, M, K>& h) {
+  Eigen::Matrix<double, C, C> m_l = l;
+  for (int j = 0; j < C; ++j) {
     const double alpha = m_l(j, j);
     double sigma = m_w[0].row(j).squaredNorm();
     for (int m = 1; m < M; ++m) sigma += m_w[m].row(j).squaredNorm();
@@ -102,8 +106,8 @@ bool triangularizeRows(const Eigen::Matrix<double, D, D>& l, Eigen::Matrix<doubl
     const double v0 = alpha <= 0.0 ? alpha - norm : -sigma / (alpha + norm);
     h.beta(j) = 2.0 * v0 * v0 / (sigma + v0 * v0);
     for (int m = 0; m < M; ++m) h.u[m].col(j) = m_w[m].row(j).transpose() / v0;
-    // Rows j .. D-1 still to be reduced (rows above are final and zero in w).
-    for (int r = j; r < D; ++r) {
+    // Rows j .. C-1 still to be reduced (rows above are final and zero in w).
+    for (int r = j; r < C; ++r) {
       double dot = m_w[0].row(r).dot(h.u[0].col(j));
       for (int m = 1; m < M; ++m) dot += m_w[m].row(r).dot(h.u[m].col(j));
       const double s = h.beta(j) * (m_l(r, j) + dot);
@@ -113,6 +117,25 @@ bool triangularizeRows(const Eigen::Matrix<double, D, D>& l, Eigen::Matrix<doubl
   }
   // What remains right of the diagonal is rounding of exact zeros.
   l_new = m_l.template triangularView<Eigen::Lower>();
+  return true;
+}
+
+// The right-hand side is one more row, [d(k)^T b_0^T ..], rotated by h: d(k) to d_new, each
+// factor's b on to the parent in rhs. False if d_new is not finite (as in finishColumn).
+template <int M, class Reflections, int C, int D>
+bool rotateRightHandSide(const Reflections& h, const Eigen::Matrix<double, C, 1>& d,
+                         Eigen::Matrix<double, D, 1>* rhs, Eigen::Matrix<double, C, 1>& d_new) {
+  Eigen::Matrix<double, 1, C> d_row = d.transpose();
+  Eigen::Matrix<double, 1, D> b_rows[M];
+  Eigen::Matrix<double, 1, D>* b_row_of[M];
+  for (int m = 0; m < M; ++m) {
+    b_rows[m] = rhs[m].transpose();
+    b_row_of[m] = &b_rows[m];
+  }
+  h.applyToRow(d_row, b_row_of);
+  if (!d_row.allFinite()) return false;
+  for (int m = 0; m < M; ++m) rhs[m] = b_rows[m].transpose();
+  d_new = d_row.transpose();
   return true;
 }
 
@@ -252,80 +275,183 @@ template <int... S>
 template <int M>
 Status IncrementalCholesky<S...>::rowUpdateColumn(Index k, const Index* pattern, Index pattern_size,
                                                   Block* const* w, Vector* rhs) {
-  const bool staged = a_.mark[k] == row_update_mark_;
-  const bool committed = !staged && k < n_;
-  const Index old_start = staged ? a_.staged_start[k] : a_.start[k];
-  const Index old_size = staged ? a_.staged_count[k] : (committed ? a_.count[k] : 0);
-  Block l_old = Block::Zero();
-  Vector d_old = Vector::Zero();
-  if (staged) {
-    l_old = a_.staged_diagonal[k];
-    d_old = a_.staged_d[k];
-  } else if (committed) {
-    l_old = a_.diagonal[k];
-    d_old = a_.d[k];
+  if constexpr (!kUniform) {
+    Status s = Status::Ok;
+    withSize<S...>(positionSize(k), [&](auto width) {
+      s = rowUpdateMixedColumn<decltype(width)::value, M>(k, pattern, pattern_size, w, rhs);
+    });
+    return s;
+  } else {
+    const LatestColumn<D> old = latestColumn<D>(k);
+    const bool staged = old.staged;
+    const Index old_start = old.start;
+    const Index old_size = old.size;
+    const Index* old_rows = a_.rows + old_start;
+    // A column this update already staged, whose rows take in the pattern (a loop closure through
+    // the columns an earlier factor of the step rotated: the odometry factor's, or a closure taken
+    // alone), is rotated where it is: the staged copy is this update's own, and a rollback forgets
+    // it anyway. Either way W(r) of its rows the pattern does not hold is zeroed now (the merge
+    // below would zero the same rows), in the pass that checks the cover.
+    const bool in_place =
+        staged && zeroUnreachedRows<M>(old_rows, old_size, pattern, pattern_size, w);
+    // Worst case every pattern row is fill.
+    if (!in_place && pool_end_ + (old_size > 0 ? old_size : 1) + pattern_size > a_.max_blocks) {
+      return Status::CapacityExhausted;
+    }
+    Block l_new;
+    RowReflections<D, D, M> h;
+    Block w_k[M];
+    for (int m = 0; m < M; ++m) w_k[m] = w[m][k];
+    if (!triangularizeRows(old.l, w_k, l_new, h)) return Status::NotPositiveDefinite;
+
+    const Index start = in_place ? old_start : pool_end_;
+    Index* rows = a_.rows + start;
+    Block* blocks = a_.blocks + start;
+    Index size = old_size;
+    if (in_place) {
+      reflectRows<D, M>(h, blocks, nullptr, size, blocks, rows, size, w);
+    } else {
+      // The merge decides the structure and where each block comes from; the reflections then read
+      // the old blocks and write the staged ones in one pass, with no copy to the staging area
+      // first. The merge's branching stays in a loop of its own: inside, it would slow the
+      // reflections.
+      Index* source = a_.row_list;
+      Index kept = 0;
+      size = mergeRows<M>(k, old_rows, old_size, pattern, pattern_size, !staged, w, rows, source,
+                          &kept);
+      reflectRows<D, M>(h, a_.blocks + old_start, source, kept, blocks, rows, size, w);
+    }
+    // The D reflections per row block: D (2 M D^2 + 2 D) multiply-adds, ~(2 M + 1) block products.
+    const std::int64_t products = (2 * M + 1) * static_cast<std::int64_t>(size - 1);
+    Vector d_new;
+    if (!rotateRightHandSide<M>(h, old.d, rhs, d_new)) return Status::NumericalOverflow;
+    blocks[0] = detail::invertLowerTriangular<D>(l_new);
+    if (!in_place) pool_end_ += size;
+    stageRotatedColumn<D>(k, staged, start, size, l_new, d_new);
+    stats_.block_products += products;
+    return Status::Ok;
   }
+}
+
+// rowUpdateColumn for mixed block sizes, column k of width C: the same steps on blocks of
+// size(row) x C addressed through their slots (a staged column's values are contiguous, slot 0's
+// first). The factors' rows are W = D wide, zero beyond a factor's own error rows, so the
+// reflections run over D entries of each factor's rows whatever its error size.
+template <int... S>
+template <int C, int M>
+Status IncrementalCholesky<S...>::rowUpdateMixedColumn(Index k, const Index* pattern,
+                                                       Index pattern_size, Block* const* w,
+                                                       Vector* rhs) {
+  using Square = Eigen::Matrix<double, C, C>;
+  const LatestColumn<C> old = latestColumn<C>(k);
+  const bool staged = old.staged;
+  const Index old_start = old.start;
+  const Index old_size = old.size;
   const Index* old_rows = a_.rows + old_start;
-  // A column this update already staged, whose rows take in the pattern (a loop closure through
-  // the columns an earlier factor of the step rotated: the odometry factor's, or a closure taken
-  // alone), is rotated where it is: the staged copy is this update's own, and a rollback forgets it
-  // anyway. Either way W(r) of its rows the pattern does not hold is zeroed now (the merge below
-  // would zero the same rows), in the pass that checks the cover.
   const bool in_place =
       staged && zeroUnreachedRows<M>(old_rows, old_size, pattern, pattern_size, w);
-  // Worst case every pattern row is fill.
   if (!in_place && pool_end_ + (old_size > 0 ? old_size : 1) + pattern_size > a_.max_blocks) {
     return Status::CapacityExhausted;
   }
-  Block l_new;
-  RowReflections<D, M> h;
-  Block w_k[M];
-  for (int m = 0; m < M; ++m) w_k[m] = w[m][k];
-  if (!triangularizeRows<D, M>(l_old, w_k, l_new, h)) return Status::NotPositiveDefinite;
+  Square l_new;
+  RowReflections<C, D, M, 0> h;
+  Eigen::Matrix<double, C, D> w_k[M];
+  for (int m = 0; m < M; ++m) w_k[m] = w[m][k].template topRows<C>();
+  if (!triangularizeRows(old.l, w_k, l_new, h)) return Status::NotPositiveDefinite;
 
   const Index start = in_place ? old_start : pool_end_;
   Index* rows = a_.rows + start;
-  Block* blocks = a_.blocks + start;
   Index size = old_size;
-  if (in_place) {
-    reflectRows<D, M>(h, blocks, nullptr, size, blocks, rows, size, w);
-  } else {
-    // The merge decides the structure and where each block comes from; the reflections then read
-    // the old blocks and write the staged ones in one pass, with no copy to the staging area
-    // first. The merge's branching stays in a loop of its own: inside, it would slow the
-    // reflections.
-    Index* source = a_.row_list;
-    Index kept = 0;
-    size =
-        mergeRows<M>(k, old_rows, old_size, pattern, pattern_size, !staged, w, rows, source, &kept);
-    reflectRows<D, M>(h, a_.blocks + old_start, source, kept, blocks, rows, size, w);
+  Index kept = old_size;
+  const Index* source = a_.row_list;
+  Index values = 0;
+  if (!in_place) {
+    size = mergeRows<M>(k, old_rows, old_size, pattern, pattern_size, !staged, w, rows, a_.row_list,
+                        &kept);
+    Index height = 0;
+    for (Index b = 0; b < size; ++b) height += positionSize(rows[b]);
+    values = height * C;
+    if (value_end_ + values > a_.max_values) return Status::CapacityExhausted;
+    Index offset = value_end_;
+    for (Index b = 0; b < size; ++b) {
+      const int row_size = positionSize(rows[b]);
+      a_.row_size[start + b] = static_cast<std::uint8_t>(row_size);
+      a_.offset[start + b] = offset;
+      offset += row_size * C;
+    }
   }
-  // The D reflections per row block: D (2 M D^2 + 2 D) multiply-adds, ~(2 M + 1) block products.
+  for (Index b = 1; b < size; ++b) {
+    const int height = slotSize(start + b);
+    double* block = slotValues(start + b);
+    if (!in_place) {
+      const Index from = b < kept ? b : source[b];
+      const std::size_t bytes = sizeof(double) * static_cast<std::size_t>(height * C);
+      if (from != kNoIndex) {
+        std::memcpy(block, slotValues(old_start + from), bytes);
+      } else {
+        std::memset(block, 0, bytes);
+      }
+    }
+    Block* x_w[M];
+    for (int m = 0; m < M; ++m) x_w[m] = &w[m][rows[b]];
+    withSize<S...>(height, [&](auto rows_of_block) {
+      Eigen::Map<Eigen::Matrix<double, decltype(rows_of_block)::value, C>> x_l(block);
+      h.apply(x_l, x_w);
+    });
+  }
+  // The reflections per row block: about (2 M + 1) block products, as for one size.
   const std::int64_t products = (2 * M + 1) * static_cast<std::int64_t>(size - 1);
-  // The right-hand side is one more row: [d(k)^T b_0^T ..].
-  Eigen::Matrix<double, 1, D> d_row = d_old.transpose();
-  Eigen::Matrix<double, 1, D> b_rows[M];
-  Eigen::Matrix<double, 1, D>* b_row_of[M];
-  for (int m = 0; m < M; ++m) {
-    b_rows[m] = rhs[m].transpose();
-    b_row_of[m] = &b_rows[m];
+  Eigen::Matrix<double, C, 1> d_new;
+  if (!rotateRightHandSide<M>(h, old.d, rhs, d_new)) return Status::NumericalOverflow;
+  Eigen::Map<Square>(slotValues(start)) = detail::invertLowerTriangular<C>(l_new);
+  if (!in_place) {
+    pool_end_ += size;
+    value_end_ += values;
   }
-  h.applyToRow(d_row, b_row_of);
-  const Vector d_new = d_row.transpose();
-  if (!d_new.allFinite()) return Status::NumericalOverflow;  // as in finishColumn
-  for (int m = 0; m < M; ++m) rhs[m] = b_rows[m].transpose();
-  blocks[0] = detail::invertLowerTriangular<D>(l_new);
-  if (!in_place) pool_end_ += size;
+  stageRotatedColumn<C>(k, staged, start, size, l_new, d_new);
+  stats_.block_products += products;
+  return Status::Ok;
+}
+
+// Column k's latest version: staged by this update, else committed, else none (an added column:
+// no blocks, L(k,k) and d(k) zero), with the top-left C x C of its L(k,k) and C of its d(k).
+template <int... S>
+template <int C>
+typename IncrementalCholesky<S...>::template LatestColumn<C>
+IncrementalCholesky<S...>::latestColumn(Index k) const {
+  LatestColumn<C> c;
+  c.staged = a_.mark[k] == row_update_mark_;
+  const bool committed = !c.staged && k < n_;
+  c.start = c.staged ? a_.staged_start[k] : a_.start[k];
+  c.size = c.staged ? a_.staged_count[k] : (committed ? a_.count[k] : 0);
+  c.l.setZero();
+  c.d.setZero();
+  if (c.staged) {
+    c.l = a_.staged_diagonal[k].template topLeftCorner<C, C>();
+    c.d = a_.staged_d[k].template head<C>();
+  } else if (committed) {
+    c.l = a_.diagonal[k].template topLeftCorner<C, C>();
+    c.d = a_.d[k].template head<C>();
+  }
+  return c;
+}
+
+// Records the rotated column k (its blocks staged at start) as this update's version.
+template <int... S>
+template <int C>
+void IncrementalCholesky<S...>::stageRotatedColumn(Index k, bool staged, Index start, Index size,
+                                                   const Eigen::Matrix<double, C, C>& l,
+                                                   const Eigen::Matrix<double, C, 1>& d) {
   if (!staged) {
     a_.mark[k] = row_update_mark_;
     a_.affected[affected_count_++] = k;
   }
   a_.staged_start[k] = start;
   a_.staged_count[k] = size;
-  a_.staged_diagonal[k] = l_new;
-  a_.staged_d[k] = d_new;
-  stats_.block_products += products;
-  return Status::Ok;
+  a_.staged_diagonal[k].setZero();
+  a_.staged_diagonal[k].template topLeftCorner<C, C>() = l;
+  a_.staged_d[k].setZero();
+  a_.staged_d[k].template head<C>() = d;
 }
 
 // W_m(r) = 0 for the rows r = rows[b], b >= 1, that the pattern (ascending) does not hold: the
@@ -439,6 +565,8 @@ Status IncrementalCholesky<S...>::finishRowUpdate() {
 LSLAM_INSTANTIATE_ROW_UPDATE(2)
 LSLAM_INSTANTIATE_ROW_UPDATE(3)
 LSLAM_INSTANTIATE_ROW_UPDATE(6)
+LSLAM_INSTANTIATE_ROW_UPDATE(3, 2)
+LSLAM_INSTANTIATE_ROW_UPDATE(6, 3)
 #undef LSLAM_INSTANTIATE_ROW_UPDATE
 
 }  // namespace lslam

@@ -162,7 +162,7 @@ Status FactorizationDriver<Graph, Factor>::factorizeOnce(Ordering& ordering, boo
                                                          const StagedVariables& relinearized,
                                                          bool* top_reordered) {
   *top_reordered = false;
-  factor_.beginUpdate(new_columns, full);
+  factor_.beginUpdate(new_columns, full, variable_at);
   // A full refactorization in the active order (a reordering reads the other buffer) keeps the
   // structure of every column outside the etree paths of this update's factors.
   if (full && variable_at == ordering.variableAt()) {
@@ -170,17 +170,15 @@ Status FactorizationDriver<Graph, Factor>::factorizeOnce(Ordering& ordering, boo
     visitAddedFactorColumns(position_of,
                             [this](Index column) { factor_.markStructureChanged(column); });
   }
-  if constexpr (kRowUpdates<Graph, Factor>) {
-    if (!full && relinearized.count == 0 && options_.row_updates && reachesBack(position_of)) {
-      Status s = addRowsOfAddedFactors(position_of);
-      if (s == Status::Ok) s = factor_.finishRowUpdate();
-      if (s == Status::Ok) {
-        factor_.commit();
-      } else {
-        factor_.rollback();
-      }
-      return s;
+  if (!full && relinearized.count == 0 && options_.row_updates && reachesBack(position_of)) {
+    Status s = addRowsOfAddedFactors(position_of);
+    if (s == Status::Ok) s = factor_.finishRowUpdate();
+    if (s == Status::Ok) {
+      factor_.commit();
+    } else {
+      factor_.rollback();
     }
+    return s;
   }
   if (!full) markAffectedColumns(position_of, relinearized);
   if (!full && allow_top_reorder && options_.reorder_affected_top &&
@@ -260,41 +258,113 @@ bool FactorizationDriver<Graph, Factor>::factorReachesBack(Index f,
 }
 
 // The factors that reach back (loop closures) go in pairs, each pair rotated together along the
-// part of their paths they share; the rest (odometry: the last two columns) one by one.
+// part of their paths they share; the rest (odometry: the last two columns) one by one. With mixed
+// block sizes the seeding factors go first (see seedAddedColumns).
 template <class Graph, class Factor>
 Status FactorizationDriver<Graph, Factor>::addRowsOfAddedFactors(const Index* position_of) {
-  if constexpr (kRowUpdates<Graph, Factor>) {
-    using FactorRows = typename Factor::FactorRows;
-    struct Whitened {
-      Index positions[2];
-      typename Factor::Block rows[2];
-      FactorRows rows_of;
-    };
-    Whitened whitened[2];
-    int pending = 0;  // reaching-back factors whitened, waiting for a partner
-    for (Index f = first_new_factor_; f < graph_.factors(); ++f) {
-      Whitened& w = whitened[pending];
-      w.rows_of.count = graph_.whitenedRows(f, position_of, w.positions, w.rows, &w.rows_of.rhs);
-      w.rows_of.positions = w.positions;
-      w.rows_of.rows_transposed = w.rows;
-      Status s = Status::Ok;
-      if (!factorReachesBack(f, position_of)) {
-        s = factor_.addFactorRows(w.rows_of);
-      } else if (pending == 0) {
-        pending = 1;
-      } else {
-        s = factor_.addFactorRows(whitened[0].rows_of, w.rows_of);
-        pending = 0;
-      }
-      if (s != Status::Ok) return s;
-    }
-    return pending == 1 ? factor_.addFactorRows(whitened[0].rows_of) : Status::Ok;
-  } else {
-    // Never called: factorizeOnce takes the row update only where it exists.
-    static_cast<void>(position_of);
-    LSLAM_ASSERT(false);
-    return Status::InvalidArgument;
+  using FactorRows = typename Factor::FactorRows;
+  Index num_seeds = 0;
+  if constexpr (!Factor::kUniform) {
+    const Status s = seedAddedColumns(position_of, &num_seeds);
+    if (s != Status::Ok) return s;
   }
+  struct Whitened {
+    Index positions[2];
+    typename Factor::Block rows[2];
+    FactorRows rows_of;
+  };
+  Whitened whitened[2];
+  int pending = 0;  // reaching-back factors whitened, waiting for a partner
+  Index next_seed = 0;
+  for (Index f = first_new_factor_; f < graph_.factors(); ++f) {
+    if (next_seed < num_seeds && a_.last_list[next_seed] == f) {  // rotated in already
+      ++next_seed;
+      continue;
+    }
+    Whitened& w = whitened[pending];
+    w.rows_of.count = graph_.whitenedRows(f, position_of, w.positions, w.rows, &w.rows_of.rhs);
+    w.rows_of.positions = w.positions;
+    w.rows_of.rows_transposed = w.rows;
+    Status s = Status::Ok;
+    if (!factorReachesBack(f, position_of)) {
+      s = factor_.addFactorRows(w.rows_of);
+    } else if (pending == 0) {
+      pending = 1;
+    } else {
+      s = factor_.addFactorRows(whitened[0].rows_of, w.rows_of);
+      pending = 0;
+    }
+    if (s != Status::Ok) return s;
+  }
+  return pending == 1 ? factor_.addFactorRows(whitened[0].rows_of) : Status::Ok;
+}
+
+// An added column starts empty, and the first rows rotated into it must have its full rank: a
+// factor with fewer error rows than the column is wide (a point observation into a pose) leaves a
+// zero pivot. The validator guarantees each added variable a factor that fixes it alone (a
+// between factor or a prior for a pose, an observation for a landmark), with as many error rows
+// as the variable has degrees of freedom. Such factors go first, one by one, each once every
+// other added column it holds is seeded (an observation of an added landmark from the added pose
+// waits for the pose's between factor). Their indices go to last_list, ascending, for
+// addRowsOfAddedFactors to skip.
+template <class Graph, class Factor>
+Status FactorizationDriver<Graph, Factor>::seedAddedColumns(const Index* position_of,
+                                                            Index* num_seeds) {
+  Index count = 0;
+  Status s = Status::Ok;
+  for (bool progress = true; progress && s == Status::Ok;) {
+    progress = false;
+    for (Index f = first_new_factor_; s == Status::Ok && f < graph_.factors(); ++f) {
+      if (std::find(a_.last_list, a_.last_list + count, f) != a_.last_list + count) continue;
+      if (!seedsColumns(f, position_of)) continue;
+      a_.last_list[count++] = f;
+      s = addRowsAlone(f, position_of);
+      progress = true;
+    }
+  }
+  std::sort(a_.last_list, a_.last_list + count);
+  // The marks go back to zero (a rejected update included).
+  for (Index f = first_new_factor_; f < graph_.factors(); ++f) {
+    a_.in_last[position_of[graph_.firstVariable(f)]] = 0;
+    const Index second = graph_.secondVariable(f);
+    if (second != kNoIndex) a_.in_last[position_of[second]] = 0;
+  }
+  *num_seeds = count;
+  return s;
+}
+
+// Whether factor f can seed now: it gives an added column not yet seeded its first rows, of full
+// rank, and every other added column it holds is seeded or gets full rank from it too. If so,
+// marks its added columns seeded.
+template <class Graph, class Factor>
+bool FactorizationDriver<Graph, Factor>::seedsColumns(Index f, const Index* position_of) {
+  using Adapter = GraphAdapter<Graph>;
+  const int rows = Adapter::errorRows(graph_, f);
+  const Index variables[2] = {graph_.firstVariable(f), graph_.secondVariable(f)};
+  bool seeds = false;
+  for (const Index v : variables) {
+    if (v == kNoIndex || position_of[v] < factor_.columns() || a_.in_last[position_of[v]] != 0) {
+      continue;  // no variable, a committed column, or one seeded already
+    }
+    if (Adapter::dofOfKind(Adapter::kindOf(graph_, v)) > rows) return false;
+    seeds = true;
+  }
+  for (const Index v : variables) {
+    if (seeds && v != kNoIndex && position_of[v] >= factor_.columns())
+      a_.in_last[position_of[v]] = 1;
+  }
+  return seeds;
+}
+
+template <class Graph, class Factor>
+Status FactorizationDriver<Graph, Factor>::addRowsAlone(Index f, const Index* position_of) {
+  Index positions[2];
+  typename Factor::Block rows[2];
+  typename Factor::FactorRows rows_of;
+  rows_of.count = graph_.whitenedRows(f, position_of, positions, rows, &rows_of.rhs);
+  rows_of.positions = positions;
+  rows_of.rows_transposed = rows;
+  return factor_.addFactorRows(rows_of);
 }
 
 template <class Graph, class Factor>

@@ -19,9 +19,7 @@
 // exactly its kind's count (kFactorValues<F>), no slot is padded to the largest kind.
 //
 // Left out of PoseGraph2D: the linearization cache (every factor is linearized afresh when a
-// column asks). whitenedRows, the rows of the row update, exists for models of one block size
-// whose factors all have that many error rows (kWhitenedRows: PoseSlam3D); the mixed-size
-// factorization has no row update.
+// column asks). whitenedRows gives the rows of the row update, for every model.
 //
 // Every definition that is not a member template is in factor_graph.cpp, compiled for Slam2D and
 // Slam3D.
@@ -194,10 +192,8 @@ class FactorGraph final : public detail::LinearTypesOf<ModelBlockSizes<Model>>::
   using Later = typename detail::LinearTypesOf<Sizes>::Later;
   static constexpr int kMax = Sizes::kMax;
   using Delta = Eigen::Matrix<double, kMax, 1>;
-  // Whether whitenedRows applies: one block size, and every factor kind's error that size.
-  static constexpr bool kWhitenedRows = Sizes::kUniform &&
-                                        detail::FactorTables<Factors>::kMaxErrorDim == kMax &&
-                                        detail::FactorTables<Factors>::kMinErrorDim == kMax;
+  static_assert(detail::FactorTables<Factors>::kMaxErrorDim <= kMax,
+                "a factor's whitened rows fit a kMax x kMax block (whitenedRows)");
   using RowBlock = Eigen::Matrix<double, kMax, kMax>;
   static_assert(Variables::kSize >= 1 && Variables::kSize <= kMaxVariableKinds,
                 "a pose kind and at most one landmark kind");
@@ -333,10 +329,10 @@ class FactorGraph final : public detail::LinearTypesOf<ModelBlockSizes<Model>>::
         Eigen::Map<const Matrix>(factorValues(f) + StoredValue<typename F::Measurement>::kSize));
   }
 
-  // The row update's rows of factor f (kWhitenedRows only): with Omega = L L^T, for each of its
-  // variables v the block J_v^T L at positions[i] = position[v], and rhs = -L^T e, at the current
-  // linearization points; returns the count (1 or 2). Lambda gains sum J^T Omega J, eta -J^T Omega
-  // e.
+  // The row update's rows of factor f: with Omega = L L^T, for each of its variables v the block
+  // J_v^T L at positions[i] = position[v] (dof(v) x kErrorDim in the top-left corner, zero
+  // elsewhere), and rhs = -L^T e (its first kErrorDim entries), at the current linearization
+  // points; returns the count (1 or 2). Lambda gains sum J^T Omega J, eta -J^T Omega e.
   Index whitenedRows(Index f, const Index* position, Index* positions, RowBlock* rows_transposed,
                      Delta* rhs) const;
 

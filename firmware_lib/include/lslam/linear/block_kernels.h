@@ -95,51 +95,59 @@ inline void multiplyByTransposedLower(Eigen::Matrix<double, D, D>& b,
   }
 }
 
-// [x_l x_w[0] .. x_w[M-1]] H_0 ... H_{D-1} in place, for the rows of x_l and of each x_w[m] (any
-// count, D columns each): the reflections of the row update, which rotates M factors' rows
-// (M = 1, or 2 for two factors taken together) into a column. H_j = I - beta(j) v_j v_j^T with
-// v_j = e_j + [0; u[0].col(j); ..; u[M-1].col(j)] ((M + 1) D long). Per row and reflection:
-// t = x_l(j) + sum_m sum_c x_w[m](c) u[m](c, j) (fused; m, then c ascending), s = beta(j) t,
-// x_l(j) -= s, x_w[m](c) -= s u[m](c, j) (fused).
-template <int D, int M, typename XL, typename XW>
-inline void applyRowReflections(const Eigen::Matrix<double, D, D>* u,
-                                const Eigen::Matrix<double, D, 1>& beta, XL& x_l, XW* const* x_w) {
+// [x_l x_w[0] .. x_w[M-1]] H_0 ... H_{C-1} in place, for the rows of x_l (C columns) and of each
+// x_w[m] (W columns; any row count): the reflections of the row update, which rotates M factors'
+// rows (M = 1, or 2 for two factors taken together) into a column of width C. H_j = I - beta(j)
+// v_j v_j^T with v_j = e_j + [0; u[0].col(j); ..; u[M-1].col(j)]. Per row and reflection:
+// t = x_l(j) + sum_m sum_c x_w[m](c) u[m](c, j) (m, then c ascending), s = beta(j) t,
+// x_l(j) -= s, x_w[m](c) -= s u[m](c, j), each multiply-add as multiplyAdd<K>.
+template <int C, int W, int M, int K, typename XL, typename XW>
+inline void applyReflectionsToRows(const Eigen::Matrix<double, W, C>* u,
+                                   const Eigen::Matrix<double, C, 1>& beta, XL& x_l,
+                                   XW* const* x_w) {
   for (Eigen::Index i = 0; i < x_l.rows(); ++i) {
-    // The row in locals for all D reflections: through the matrices, every store may alias u for
+    // The row in locals for all C reflections: through the matrices, every store may alias u for
     // all the compiler knows, and the scalar Cortex-M would reload the row after each one.
-    double l[D];
-    double x[M][D];
+    double l[C];
+    double x[M][W];
 #pragma GCC unroll 6
-    for (int c = 0; c < D; ++c) l[c] = x_l(i, c);
+    for (int c = 0; c < C; ++c) l[c] = x_l(i, c);
 #pragma GCC unroll 2
     for (int m = 0; m < M; ++m) {
 #pragma GCC unroll 6
-      for (int c = 0; c < D; ++c) x[m][c] = (*x_w[m])(i, c);
+      for (int c = 0; c < W; ++c) x[m][c] = (*x_w[m])(i, c);
     }
 #pragma GCC unroll 6
-    for (int j = 0; j < D; ++j) {
+    for (int j = 0; j < C; ++j) {
       double t = l[j];
 #pragma GCC unroll 2
       for (int m = 0; m < M; ++m) {
 #pragma GCC unroll 6
-        for (int c = 0; c < D; ++c) t = multiplyAdd<D>(x[m][c], u[m](c, j), t);
+        for (int c = 0; c < W; ++c) t = multiplyAdd<K>(x[m][c], u[m](c, j), t);
       }
       const double s = beta(j) * t;
       l[j] -= s;
 #pragma GCC unroll 2
       for (int m = 0; m < M; ++m) {
 #pragma GCC unroll 6
-        for (int c = 0; c < D; ++c) x[m][c] = multiplyAdd<D>(-s, u[m](c, j), x[m][c]);
+        for (int c = 0; c < W; ++c) x[m][c] = multiplyAdd<K>(-s, u[m](c, j), x[m][c]);
       }
     }
 #pragma GCC unroll 6
-    for (int c = 0; c < D; ++c) x_l(i, c) = l[c];
+    for (int c = 0; c < C; ++c) x_l(i, c) = l[c];
 #pragma GCC unroll 2
     for (int m = 0; m < M; ++m) {
 #pragma GCC unroll 6
-      for (int c = 0; c < D; ++c) (*x_w[m])(i, c) = x[m][c];
+      for (int c = 0; c < W; ++c) (*x_w[m])(i, c) = x[m][c];
     }
   }
+}
+
+// The reflections of one block size D (C = W = D), fused as the AVX2/FMA forms below.
+template <int D, int M, typename XL, typename XW>
+inline void applyRowReflections(const Eigen::Matrix<double, D, D>* u,
+                                const Eigen::Matrix<double, D, 1>& beta, XL& x_l, XW* const* x_w) {
+  applyReflectionsToRows<D, D, M, D>(u, beta, x_l, x_w);
 }
 
 // How many doubles each column's entry of the solution takes in the back-substitution's array of

@@ -41,8 +41,8 @@
 // array of doubles, each block slot has its offset there and its row size (the size of slot 0 is
 // the column's own), and a column's values are one contiguous range (its slots may point into it
 // in any order). Per-column arrays (d, the diagonal, the solution) hold the largest size, a
-// column using its top-left part. The row update and the supernode kernels are for one block size
-// only (not compiled for mixed sizes): a mixed model updates by recomputation (factorize).
+// column using its top-left part. The supernode and AVX2 kernels are for one block size only; the
+// row update works at mixed sizes too, on fixed-size Eigen blocks.
 #include <cstddef>
 #include <cstdint>
 
@@ -145,8 +145,10 @@ class IncrementalCholesky {
 
   // --- one update: begin, mark changed columns, factorize, then commit or roll back ---
   // Adds `new_columns` columns at the end. With full_refactor every column is recomputed from
-  // scratch (after a reordering: old columns are then ignored).
-  void beginUpdate(Index new_columns, bool full_refactor);
+  // scratch (after a reordering: old columns are then ignored). Mixed sizes: a row update reads
+  // the added columns' sizes through variable_at (the order of the update; factorize() is given
+  // it anyway).
+  void beginUpdate(Index new_columns, bool full_refactor, const Index* variable_at = nullptr);
   // Column `column` of Lambda (or of eta) changed in this update.
   void markChanged(Index column);
   // For a full refactorization in the order of the live factor (after beginUpdate(.., true)):
@@ -195,7 +197,9 @@ class IncrementalCholesky {
   // against O(s^2) in factorize(), which is what makes loop closures into a dense top cheap.
   // The rows of one factor: `count` column positions (ascending not required) and, for each, the
   // D x D block A_r^T (D rows of the factor, so a rank-D update), and the whitened right-hand side
-  // b. Added columns start empty; every one must receive rows before finishRowUpdate().
+  // b. Mixed sizes: block r holds size(r) x m (a factor of m <= D error rows) in its top-left
+  // corner and zeros elsewhere, b its m entries and zeros. Added columns start empty; every one
+  // must receive rows before finishRowUpdate().
   struct FactorRows {
     const Index* positions;
     const Block* rows_transposed;
@@ -363,6 +367,24 @@ class IncrementalCholesky {
   template <int M>
   [[nodiscard]] Status rowUpdateColumn(Index k, const Index* pattern, Index pattern_size,
                                        Block* const* w, Vector* rhs);
+  template <int C, int M>
+  [[nodiscard]] Status rowUpdateMixedColumn(Index k, const Index* pattern, Index pattern_size,
+                                            Block* const* w, Vector* rhs);
+  // Column k's latest version for the row update (staged, committed or none) and its recording.
+  template <int C>
+  struct LatestColumn {
+    bool staged;
+    Index start;
+    Index size;
+    Eigen::Matrix<double, C, C> l;
+    Eigen::Matrix<double, C, 1> d;
+  };
+  template <int C>
+  LatestColumn<C> latestColumn(Index k) const;
+  template <int C>
+  void stageRotatedColumn(Index k, bool staged, Index start, Index size,
+                          const Eigen::Matrix<double, C, C>& l,
+                          const Eigen::Matrix<double, C, 1>& d);
   template <int M>
   bool zeroUnreachedRows(const Index* rows, Index size, const Index* pattern, Index pattern_size,
                          Block* const* w);
@@ -415,7 +437,6 @@ class StaticCholeskyStorageFor<BlockSizes<S...>, MaxColumns, MaxBlocks, MaxValue
   // Storage of one size for the arrays a size does not use (one element, never read).
   static constexpr Index kPoolBlocks = kUniform ? MaxBlocks : 1;
   static constexpr Index kMixedBlocks = kUniform ? 1 : MaxBlocks;
-  static constexpr Index kUpdateRows = kUniform ? MaxColumns : 1;
 
   CholeskyArrays<S...> arrays() {
     CholeskyArrays<S...> a;
@@ -455,8 +476,8 @@ class StaticCholeskyStorageFor<BlockSizes<S...>, MaxColumns, MaxBlocks, MaxValue
     a.rank_of = rank_of_;
     a.clique_start = clique_start_;
     a.clique_entry = clique_entry_;
-    a.update_rows = kUniform ? update_rows_ : nullptr;
-    a.second_update_rows = kUniform ? second_update_rows_ : nullptr;
+    a.update_rows = update_rows_;
+    a.second_update_rows = second_update_rows_;
     a.solution = solution_;
     return a;
   }
@@ -493,8 +514,8 @@ class StaticCholeskyStorageFor<BlockSizes<S...>, MaxColumns, MaxBlocks, MaxValue
   Index rank_of_[MaxColumns];
   Index clique_start_[MaxColumns + 1];
   Index clique_entry_[MaxBlocks];
-  Block update_rows_[kUpdateRows];
-  Block second_update_rows_[kUpdateRows];
+  Block update_rows_[MaxColumns];
+  Block second_update_rows_[MaxColumns];
   alignas(32) double solution_[MaxColumns * detail::kSolutionStride<D>];
 };
 

@@ -6,9 +6,7 @@
 // added factors and of the work its factorizations cost.
 //
 // A template over the graph and the factor, defined and instantiated for the solver's pairs in
-// factorization_driver.cpp. The row update is taken only where kRowUpdates (graph_adapter.h)
-// holds (PoseGraph2D with one block size); elsewhere an update that only adds factors recomputes
-// its columns (or reorders the affected top).
+// factorization_driver.cpp.
 #include <cstdint>
 
 #include "lslam/linear/incremental_cholesky.h"
@@ -39,10 +37,12 @@ struct StagedVariables {
   Index count = 0;
 };
 
-// Sizes: max_variables each.
+// Sizes: max_variables each. Two lists and a mark per position, used by one path of an update at
+// a time, all zero between uses.
 struct FactorizationArrays {
-  Index* last_list = nullptr;       // the positions a reordered update keeps last
-  std::uint8_t* in_last = nullptr;  // per position: already in last_list
+  Index* last_list = nullptr;       // the positions a reordered update keeps last; the row
+                                    // update's seeding factors (see seedAddedColumns)
+  std::uint8_t* in_last = nullptr;  // per position: already in last_list; an added column seeded
 };
 
 template <class Graph, class Factor>
@@ -96,6 +96,9 @@ class FactorizationDriver {
   }
   bool factorReachesBack(Index f, const Index* position_of) const;
   [[nodiscard]] Status addRowsOfAddedFactors(const Index* position_of);
+  [[nodiscard]] Status seedAddedColumns(const Index* position_of, Index* num_seeds);
+  bool seedsColumns(Index f, const Index* position_of);
+  [[nodiscard]] Status addRowsAlone(Index f, const Index* position_of);
 
   FactorizationArrays a_;
   Graph& graph_;
