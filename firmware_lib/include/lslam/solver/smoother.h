@@ -49,16 +49,15 @@
 namespace lslam {
 
 // The options a smoother of a model starts from (StaticSmoother's default): SolverOptions{}, whose
-// values were tuned on 2D data, except that 3D poses take relinearize_urgent_threshold 0.5. A 3D
-// pose's first solves routinely move it by 0.1 to 0.5 (m or rad) as loop closures pull it: at 0.1
-// sphere2500 relinearizes in 1,700 of its 2,500 updates and takes 7x the time of 0.5, for an
-// estimate 0.004 % nearer the optimum.
+// values were tuned on 2D pose graphs, except relinearize_urgent_threshold 0.5. A 3D pose or a
+// landmark is routinely moved by 0.1 to 0.5 (m or rad) in its first solves, as loop closures and
+// re-observations pull it: at 0.1 most updates relinearize (sphere2500: 1,700 of 2,500, 7x the
+// time of 0.5; victoriaPark 1.3x), for an estimate a few thousandths of a percent nearer the
+// optimum.
 template <class Model>
 SolverOptions defaultSolverOptions() {
   SolverOptions options;
-  if constexpr (std::is_same_v<TypeAtT<0, typename Model::Variables>, SE3>) {
-    options.relinearize_urgent_threshold = 0.5;
-  }
+  options.relinearize_urgent_threshold = 0.5;
   return options;
 }
 
