@@ -10,6 +10,7 @@
 #include <type_traits>
 
 #include "host_sim/model_steps.h"
+#include "lslam/models/pose_slam_2d.h"
 #include "lslam/models/pose_slam_3d.h"
 #include "lslam/models/slam_2d.h"
 #include "lslam/models/slam_3d.h"
@@ -26,8 +27,9 @@ using HostSmoother2D =
     StaticSmoother<Slam2D, 16384, 4096, 32768, 32768 * 12, 1 << 20, (1 << 20) * 9>;
 using HostSmoother3D =
     StaticSmoother<Slam3D, 8192, 4096, 16384, 16384 * 43, 1 << 19, (1 << 19) * 36>;
-// 3D pose graphs (no landmarks) take the one-size model, which has the row update.
+// Pose graphs (no landmarks) take the one-size models, whose kernels are the fastest.
 using HostSmootherPoses3D = StaticSmoother<PoseSlam3D, 8192, 0, 16384, 16384 * 43, 1 << 19, 0>;
+using HostSmootherPoses2D = StaticSmoother<PoseSlam2D, 16384, 0, 32768, 32768 * 12, 1 << 20, 0>;
 
 // Built in memory zeroed beforehand, as the robot's .bss (see incremental_run.cpp): the timed steps
 // do not pay first-touch page faults.
@@ -409,7 +411,12 @@ auto withModelOf(const ModelDataset& d, Fn&& fn) {
     }
     return fn(static_cast<PoseSlam3D*>(nullptr), static_cast<HostSmootherPoses3D*>(nullptr));
   }
-  return fn(static_cast<Slam2D*>(nullptr), static_cast<HostSmoother2D*>(nullptr));
+  for (const ModelFactor& f : d.factors) {
+    if (f.first.role == VariableRole::Landmark || f.second.role == VariableRole::Landmark) {
+      return fn(static_cast<Slam2D*>(nullptr), static_cast<HostSmoother2D*>(nullptr));
+    }
+  }
+  return fn(static_cast<PoseSlam2D*>(nullptr), static_cast<HostSmootherPoses2D*>(nullptr));
 }
 
 }  // namespace

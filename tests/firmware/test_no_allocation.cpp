@@ -47,6 +47,7 @@
 #include "host_sim/steps.h"
 #include "host_sim/synthetic.h"
 #include "lslam/factors/information.h"
+#include "lslam/models/pose_slam_2d.h"
 #include "lslam/models/pose_slam_3d.h"
 #include "lslam/models/slam_2d.h"
 #include "lslam/models/slam_3d.h"
@@ -1028,6 +1029,27 @@ std::vector<ModelStep<Slam2D>> stream2D(int poses) {
   return steps;
 }
 
+// PoseSlam2D: a circle of poses with odometry and, every fourth pose, a loop closure six back.
+std::vector<ModelStep<PoseSlam2D>> poseGraph2D(int poses) {
+  using Var = ModelVariableInput<PoseSlam2D>;
+  using Fac = lslam::ModelFactorInput<PoseSlam2D>;
+  std::vector<ModelStep<PoseSlam2D>> steps(static_cast<std::size_t>(poses));
+  const SE2 move(1.0, 0.0, 0.2);
+  std::vector<SE2> truth;
+  for (int k = 0; k < poses; ++k) {
+    truth.push_back(k == 0 ? SE2(0.0, 0.0, 0.0) : truth.back().compose(move));
+    const SE2& x = truth.back();
+    ModelStep<PoseSlam2D>& st = steps[static_cast<std::size_t>(k)];
+    st.variables.push_back(Var::make(k, SE2(x.x() + 0.02 * k, x.y(), x.theta())));
+    if (k > 0) st.factors.push_back(Fac::make<BetweenSE2Factor>(k - 1, k, move, Mat3::Identity()));
+    if (k >= 6 && k % 4 == 0) {
+      const SE2 rel = truth[static_cast<std::size_t>(k - 6)].between(x);
+      st.factors.push_back(Fac::make<BetweenSE2Factor>(k - 6, k, rel, Mat3::Identity()));
+    }
+  }
+  return steps;
+}
+
 // Every step, a rejected update (an unknown id) before each, solve(true), optimize(), chi2() and
 // the estimate's reads, all in one counted span; then checks that each of them ran.
 template <class Model, class Solver>
@@ -1081,7 +1103,8 @@ void runModelStreamCounted(Solver& solver, const std::vector<ModelStep<Model>>& 
 
 }  // namespace
 
-TEST_CASE("no heap allocation in the model smoother: 3D streams and a 2D landmark stream") {
+TEST_CASE(
+    "no heap allocation in the model smoother: 3D streams, 2D landmark and pose-graph streams") {
   const std::vector<ModelStep<Slam3D>> steps3 = stream3D(60);
   const std::vector<ModelStep<Slam2D>> steps2 = stream2D(60);
   auto smoother3 =
@@ -1095,6 +1118,10 @@ TEST_CASE("no heap allocation in the model smoother: 3D streams and a 2D landmar
   auto pose_smoother =
       std::make_unique<StaticSmoother<PoseSlam3D, 64, 0, 256, 256 * 43, 4000, 0>>();
   runModelStreamCounted<PoseSlam3D>(*pose_smoother, poses3, "3D pose-graph smoother stream");
+  const std::vector<ModelStep<PoseSlam2D>> poses2 = poseGraph2D(60);
+  auto pose_smoother2 =
+      std::make_unique<StaticSmoother<PoseSlam2D, 64, 0, 256, 256 * 12, 4000, 0>>();
+  runModelStreamCounted<PoseSlam2D>(*pose_smoother2, poses2, "2D pose-graph smoother stream");
 }
 
 #else  // !defined(__GLIBC__)

@@ -15,6 +15,7 @@
 #include "host_sim/model_batch_solver.h"
 #include "host_sim/model_chi2.h"
 #include "host_sim/model_dataset.h"
+#include "lslam/models/pose_slam_2d.h"
 #include "lslam/models/pose_slam_3d.h"
 #include "lslam/models/slam_2d.h"
 #include "lslam/models/slam_3d.h"
@@ -28,6 +29,7 @@ using lslam::Mat3;
 using lslam::Mat6;
 using lslam::Point2;
 using lslam::Point3;
+using lslam::PoseSlam2D;
 using lslam::PoseSlam3D;
 using lslam::SE2;
 using lslam::SE3;
@@ -79,13 +81,17 @@ Eigen::Vector3d vec(const SE2& x) {
   return Eigen::Vector3d(x.x(), x.y(), x.theta());
 }
 
-Stream<Slam2D> stream2D(unsigned seed, int poses, int landmarks) {
-  using Var = lslam::ModelVariableInput<Slam2D>;
-  using Fac = lslam::ModelFactorInput<Slam2D>;
+// Slam2D, or PoseSlam2D (the same poses and pose factors; landmarks must be 0).
+template <class Model = Slam2D>
+Stream<Model> stream2D(unsigned seed, int poses, int landmarks) {
+  using Var = lslam::ModelVariableInput<Model>;
+  using Fac = lslam::ModelFactorInput<Model>;
+  constexpr bool kLandmarks = Model::Variables::kSize == 2;
+  REQUIRE((kLandmarks || landmarks == 0));
   std::mt19937 rng(seed);
   std::normal_distribution<double> noise(0.0, 1.0);
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
-  Stream<Slam2D> s;
+  Stream<Model> s;
   s.dataset.name = "random 2D";
   s.dataset.dimension = 2;
   std::vector<SE2> truth;
@@ -101,7 +107,7 @@ Stream<Slam2D> stream2D(unsigned seed, int poses, int landmarks) {
     return SE2(z.x() + 0.1 * noise(rng), z.y() + 0.1 * noise(rng), z.theta() + 0.05 * noise(rng));
   };
   for (int k = 0; k < poses; ++k) {
-    Step<Slam2D> step;
+    Step<Model> step;
     if (k == 0) {
       truth.push_back(SE2(0.0, 0.0, 0.0));
       initial.push_back(truth[0]);
@@ -112,14 +118,14 @@ Stream<Slam2D> stream2D(unsigned seed, int poses, int landmarks) {
       truth.push_back(truth[k - 1].compose(move));
       const SE2 z = noisy(move);
       initial.push_back(initial[k - 1].compose(z));
-      step.factors.push_back(Fac::make<lslam::BetweenSE2Factor>(k - 1, k, z, odo_info));
+      step.factors.push_back(Fac::template make<lslam::BetweenSE2Factor>(k - 1, k, z, odo_info));
       addFactor(s, sim::FactorKind::BetweenSE2, poseKey(k - 1), poseKey(k), vec(z), odo_info);
       // A loop closure to an earlier pose nearby in space.
       for (int j = 0; j + 8 < k; ++j) {
         const SE2 rel = truth[j].between(truth[k]);
         if (std::hypot(rel.x(), rel.y()) < 2.0 && uniform(rng) < 0.3) {
           const SE2 zl = noisy(rel);
-          step.factors.push_back(Fac::make<lslam::BetweenSE2Factor>(j, k, zl, odo_info));
+          step.factors.push_back(Fac::template make<lslam::BetweenSE2Factor>(j, k, zl, odo_info));
           addFactor(s, sim::FactorKind::BetweenSE2, poseKey(j), poseKey(k), vec(zl), odo_info);
           break;
         }
@@ -127,37 +133,41 @@ Stream<Slam2D> stream2D(unsigned seed, int poses, int landmarks) {
     }
     step.variables.push_back(Var::make(k, initial[k]));
     s.initial[poseKey(k)] = vec(initial[k]);
-    // Landmarks within 4 m: odd ids by range-bearing, even ids by position.
-    for (int l = 0; l < landmarks; ++l) {
-      const Vec2 d = marks[l] - truth[k].translation();
-      if (d.norm() > 4.0) continue;
-      const double c = std::cos(truth[k].theta());
-      const double sn = std::sin(truth[k].theta());
-      const Vec2 local(c * d.x() + sn * d.y(), -sn * d.x() + c * d.y());
-      Vec2 z;
-      Vec2 local_measured;
-      if (l % 2 == 1) {
-        z = Vec2(local.norm() + 0.05 * noise(rng),
-                 std::atan2(local.y(), local.x()) + 0.02 * noise(rng));
-        local_measured = Vec2(z(0) * std::cos(z(1)), z(0) * std::sin(z(1)));
-        step.factors.push_back(Fac::make<lslam::RangeBearingSE2Factor>(k, l, z, rb_info));
-        addFactor(s, sim::FactorKind::RangeBearing2, poseKey(k), landmarkKey(l), z, rb_info);
-      } else {
-        z = local + 0.05 * Vec2(noise(rng), noise(rng));
-        local_measured = z;
-        step.factors.push_back(Fac::make<lslam::PointObservationSE2Factor>(k, l, z, xy_info));
-        addFactor(s, sim::FactorKind::PointXY2, poseKey(k), landmarkKey(l), z, xy_info);
-      }
-      if (!seen[l]) {
-        // Initialised from this observation at the dead-reckoned pose.
-        seen[l] = true;
-        const SE2& p = initial[k];
-        const double ci = std::cos(p.theta());
-        const double si = std::sin(p.theta());
-        const Vec2 w(p.x() + ci * local_measured.x() - si * local_measured.y(),
-                     p.y() + si * local_measured.x() + ci * local_measured.y());
-        step.variables.push_back(Var::make(l, Point2(w)));
-        s.initial[landmarkKey(l)] = w;
+    if constexpr (kLandmarks) {
+      // Landmarks within 4 m: odd ids by range-bearing, even ids by position.
+      for (int l = 0; l < landmarks; ++l) {
+        const Vec2 d = marks[l] - truth[k].translation();
+        if (d.norm() > 4.0) continue;
+        const double c = std::cos(truth[k].theta());
+        const double sn = std::sin(truth[k].theta());
+        const Vec2 local(c * d.x() + sn * d.y(), -sn * d.x() + c * d.y());
+        Vec2 z;
+        Vec2 local_measured;
+        if (l % 2 == 1) {
+          z = Vec2(local.norm() + 0.05 * noise(rng),
+                   std::atan2(local.y(), local.x()) + 0.02 * noise(rng));
+          local_measured = Vec2(z(0) * std::cos(z(1)), z(0) * std::sin(z(1)));
+          step.factors.push_back(
+              Fac::template make<lslam::RangeBearingSE2Factor>(k, l, z, rb_info));
+          addFactor(s, sim::FactorKind::RangeBearing2, poseKey(k), landmarkKey(l), z, rb_info);
+        } else {
+          z = local + 0.05 * Vec2(noise(rng), noise(rng));
+          local_measured = z;
+          step.factors.push_back(
+              Fac::template make<lslam::PointObservationSE2Factor>(k, l, z, xy_info));
+          addFactor(s, sim::FactorKind::PointXY2, poseKey(k), landmarkKey(l), z, xy_info);
+        }
+        if (!seen[l]) {
+          // Initialised from this observation at the dead-reckoned pose.
+          seen[l] = true;
+          const SE2& p = initial[k];
+          const double ci = std::cos(p.theta());
+          const double si = std::sin(p.theta());
+          const Vec2 w(p.x() + ci * local_measured.x() - si * local_measured.y(),
+                       p.y() + si * local_measured.x() + ci * local_measured.y());
+          step.variables.push_back(Var::make(l, Point2(w)));
+          s.initial[landmarkKey(l)] = w;
+        }
       }
     }
     s.steps.push_back(step);
@@ -319,6 +329,7 @@ sim::ModelBatchResult batch(const sim::ModelDataset& d, const sim::ModelEstimate
 using Smoother2D = lslam::StaticSmoother<Slam2D, 160, 40, 1600, 1600 * 12, 24000, 24000 * 9>;
 using Smoother3D = lslam::StaticSmoother<Slam3D, 130, 40, 1600, 1600 * 43, 20000, 20000 * 36>;
 using SmootherPoses3D = lslam::StaticSmoother<PoseSlam3D, 200, 0, 1600, 1600 * 43, 20000, 0>;
+using SmootherPoses2D = lslam::StaticSmoother<PoseSlam2D, 400, 0, 1600, 1600 * 12, 24000, 0>;
 
 // Online, then optimize(): chi2 within 1e-6 relative of the batch optimum; every estimate within
 // 1e-6 (pose translation and landmark coordinates, m; angle or quaternion coefficients) of the
@@ -419,6 +430,20 @@ TEST_CASE(
     const Stream<PoseSlam3D> stream = stream3D<PoseSlam3D>(seeds[i], poses[i], 0);
     auto smoother = std::make_unique<SmootherPoses3D>();
     checkAgainstBatch(stream, *smoother, 7);
+    CHECK(smoother->landmarks() == 0);
+  }
+}
+
+TEST_CASE(
+    "PoseSlam2D streams (one block size: supernodes, 3x3 kernels): optimize() reaches the batch "
+    "optimum") {
+  const unsigned seeds[] = {17, 29};
+  const int poses[] = {120, 300};
+  for (int i = 0; i < 2; ++i) {
+    CAPTURE(seeds[i]);
+    const Stream<PoseSlam2D> stream = stream2D<PoseSlam2D>(seeds[i], poses[i], 0);
+    auto smoother = std::make_unique<SmootherPoses2D>();
+    checkAgainstBatch(stream, *smoother, 3);
     CHECK(smoother->landmarks() == 0);
   }
 }

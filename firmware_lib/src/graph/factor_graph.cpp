@@ -3,6 +3,7 @@
 #include <Eigen/Cholesky>
 #include <cstring>
 
+#include "lslam/models/pose_slam_2d.h"
 #include "lslam/models/pose_slam_3d.h"
 #include "lslam/models/slam_2d.h"
 #include "lslam/models/slam_3d.h"
@@ -402,6 +403,7 @@ const double* FactorGraph<Model>::factorInformation(Index f) const {
 
 template class FactorGraph<Slam2D>;
 template class FactorGraph<Slam3D>;
+template class FactorGraph<PoseSlam2D>;
 template class FactorGraph<PoseSlam3D>;
 
 }  // namespace lslam

@@ -5,6 +5,7 @@
 #include "lslam/assert.h"
 #include "lslam/factors/pose_graph_2d.h"
 #include "lslam/graph/factor_graph.h"
+#include "lslam/models/pose_slam_2d.h"
 #include "lslam/models/pose_slam_3d.h"
 #include "lslam/models/slam_2d.h"
 #include "lslam/models/slam_3d.h"
@@ -384,6 +385,7 @@ void FactorizationDriver<Graph, Factor>::markAffectedColumns(const Index* positi
 template class FactorizationDriver<PoseGraph2D, IncrementalCholesky<3>>;
 template class FactorizationDriver<FactorGraph<Slam2D>, IncrementalCholesky<3, 2>>;
 template class FactorizationDriver<FactorGraph<Slam3D>, IncrementalCholesky<6, 3>>;
+template class FactorizationDriver<FactorGraph<PoseSlam2D>, IncrementalCholesky<3>>;
 template class FactorizationDriver<FactorGraph<PoseSlam3D>, IncrementalCholesky<6>>;
 
 }  // namespace lslam

@@ -2,6 +2,7 @@
 
 #include <type_traits>
 
+#include "lslam/models/pose_slam_2d.h"
 #include "lslam/models/pose_slam_3d.h"
 #include "lslam/models/slam_2d.h"
 #include "lslam/models/slam_3d.h"
@@ -160,6 +161,7 @@ void ModelUpdateValidator<Model>::forgetIds(const ModelVariableInput<Model>* var
 
 template class ModelUpdateValidator<Slam2D>;
 template class ModelUpdateValidator<Slam3D>;
+template class ModelUpdateValidator<PoseSlam2D>;
 template class ModelUpdateValidator<PoseSlam3D>;
 
 }  // namespace lslam

@@ -6,6 +6,7 @@
 #include "lslam/factors/pose_graph_2d.h"
 #include "lslam/graph/factor_graph.h"
 #include "lslam/linear/elimination_tree.h"
+#include "lslam/models/pose_slam_2d.h"
 #include "lslam/models/pose_slam_3d.h"
 #include "lslam/models/slam_2d.h"
 #include "lslam/models/slam_3d.h"
@@ -137,6 +138,7 @@ bool OrderingPolicy<Graph, Factor>::computeFreshOrdering(bool* prepared_overwrit
 template class OrderingPolicy<PoseGraph2D, IncrementalCholesky<3>>;
 template class OrderingPolicy<FactorGraph<Slam2D>, IncrementalCholesky<3, 2>>;
 template class OrderingPolicy<FactorGraph<Slam3D>, IncrementalCholesky<6, 3>>;
+template class OrderingPolicy<FactorGraph<PoseSlam2D>, IncrementalCholesky<3>>;
 template class OrderingPolicy<FactorGraph<PoseSlam3D>, IncrementalCholesky<6>>;
 
 }  // namespace lslam

@@ -5,6 +5,7 @@
 
 #include "lslam/factors/pose_graph_2d.h"
 #include "lslam/graph/factor_graph.h"
+#include "lslam/models/pose_slam_2d.h"
 #include "lslam/models/pose_slam_3d.h"
 #include "lslam/models/slam_2d.h"
 #include "lslam/models/slam_3d.h"
@@ -209,6 +210,7 @@ void RelinearizationPolicy<Graph, Factor>::noteCandidates(const Index* visited, 
 template class RelinearizationPolicy<PoseGraph2D, IncrementalCholesky<3>>;
 template class RelinearizationPolicy<FactorGraph<Slam2D>, IncrementalCholesky<3, 2>>;
 template class RelinearizationPolicy<FactorGraph<Slam3D>, IncrementalCholesky<6, 3>>;
+template class RelinearizationPolicy<FactorGraph<PoseSlam2D>, IncrementalCholesky<3>>;
 template class RelinearizationPolicy<FactorGraph<PoseSlam3D>, IncrementalCholesky<6>>;
 
 }  // namespace lslam

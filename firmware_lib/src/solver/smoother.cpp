@@ -2,6 +2,7 @@
 
 #include <type_traits>
 
+#include "lslam/models/pose_slam_2d.h"
 #include "lslam/models/pose_slam_3d.h"
 #include "lslam/models/slam_2d.h"
 #include "lslam/models/slam_3d.h"
@@ -288,6 +289,7 @@ double Smoother<Model>::chi2() const {
 
 template class Smoother<Slam2D>;
 template class Smoother<Slam3D>;
+template class Smoother<PoseSlam2D>;
 template class Smoother<PoseSlam3D>;
 
 }  // namespace lslam
