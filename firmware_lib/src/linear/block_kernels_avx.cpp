@@ -371,6 +371,56 @@ LSLAM_TARGET_AVX_FMA inline void reflectRowHalf6(const ReflectionCoefficients6<M
   }
 }
 
+// Rows 4-5 of two row blocks in one 4-lane register (lanes 0-1: block p, 2-3: block q).
+LSLAM_TARGET_AVX_FMA inline __m256d loadBottomPair(const double* p, const double* q) {
+  return _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(p)), _mm_loadu_pd(q), 1);
+}
+LSLAM_TARGET_AVX_FMA inline void storeBottomPair(double* p, double* q, __m256d v) {
+  _mm_storeu_pd(p, _mm256_castpd256_pd128(v));
+  _mm_storeu_pd(q, _mm256_extractf128_pd(v, 1));
+}
+
+// reflectRowHalf6 on rows 4-5 of two row blocks at once, packed in 4-lane registers: each lane
+// takes the same operations as in the 2-lane form (the same bits), in half the instructions.
+template <int M>
+LSLAM_TARGET_AVX_FMA inline void reflectBottomPair6(const ReflectionCoefficients6<M>& h,
+                                                    const double* const* l_in, double* const* l_out,
+                                                    double* const* w_p, double* const* w_q) {
+  __m256d x[M][6];
+#pragma GCC unroll 2
+  for (int m = 0; m < M; ++m) {
+#pragma GCC unroll 6
+    for (int c = 0; c < 6; ++c) x[m][c] = loadBottomPair(w_p[m] + 6 * c + 4, w_q[m] + 6 * c + 4);
+  }
+#pragma GCC unroll 6
+  for (int j = 0; j < 6; ++j) {
+    const double* coefficient = h.of[j];
+    const __m256d l = loadBottomPair(l_in[0] + 6 * j + 4, l_in[1] + 6 * j + 4);
+    __m256d t = l;
+#pragma GCC unroll 2
+    for (int m = 0; m < M; ++m) {
+#pragma GCC unroll 6
+      for (int c = 0; c < 6; ++c) {
+        t = _mm256_fmadd_pd(x[m][c], _mm256_broadcast_sd(coefficient + 6 * m + c), t);
+      }
+    }
+    const __m256d s = _mm256_mul_pd(_mm256_broadcast_sd(coefficient + 6 * M), t);
+    storeBottomPair(l_out[0] + 6 * j + 4, l_out[1] + 6 * j + 4, _mm256_sub_pd(l, s));
+#pragma GCC unroll 2
+    for (int m = 0; m < M; ++m) {
+#pragma GCC unroll 6
+      for (int c = 0; c < 6; ++c) {
+        x[m][c] = _mm256_fnmadd_pd(s, _mm256_broadcast_sd(coefficient + 6 * m + c), x[m][c]);
+      }
+    }
+  }
+#pragma GCC unroll 2
+  for (int m = 0; m < M; ++m) {
+#pragma GCC unroll 6
+    for (int c = 0; c < 6; ++c) storeBottomPair(w_p[m] + 6 * c + 4, w_q[m] + 6 * c + 4, x[m][c]);
+  }
+}
+
 template <int M>
 LSLAM_TARGET_AVX_FMA inline void reflectRowBlock6(const ReflectionCoefficients6<M>& h,
                                                   const double* l_in, double* l_out,
@@ -425,13 +475,31 @@ LSLAM_TARGET_AVX_FMA void applyRowReflectionsFromAvx(const Mat6* u, const Vec6& 
                                                      Index size, Mat6* const* w) {
   static const Mat6 kZero = Mat6::Zero();
   const ReflectionCoefficients6<M> h(u, beta);
-  for (Index b = 1; b < size; ++b) {
-    const Mat6* l_in = b < kept                ? source_blocks + b
-                       : source[b] != kNoIndex ? source_blocks + source[b]
-                                               : &kZero;
+  auto input = [&](Index b) {
+    return (b < kept                ? source_blocks + b
+            : source[b] != kNoIndex ? source_blocks + source[b]
+                                    : &kZero)
+        ->data();
+  };
+  // Two row blocks at a time: rows 0-3 of each, then rows 4-5 of both in one register.
+  Index b = 1;
+  for (; b + 1 < size; b += 2) {
+    const double* l_in[2] = {input(b), input(b + 1)};
+    double* l_out[2] = {blocks[b].data(), blocks[b + 1].data()};
+    double* w_p[M];
+    double* w_q[M];
+    for (int m = 0; m < M; ++m) {
+      w_p[m] = w[m][rows[b]].data();
+      w_q[m] = w[m][rows[b + 1]].data();
+    }
+    reflectRowHalf6<Lanes4, M>(h, l_in[0], l_out[0], w_p);
+    reflectRowHalf6<Lanes4, M>(h, l_in[1], l_out[1], w_q);
+    reflectBottomPair6<M>(h, l_in, l_out, w_p, w_q);
+  }
+  if (b < size) {
     double* w_data[M];
     for (int m = 0; m < M; ++m) w_data[m] = w[m][rows[b]].data();
-    reflectRowBlock6<M>(h, l_in->data(), blocks[b].data(), w_data);
+    reflectRowBlock6<M>(h, input(b), blocks[b].data(), w_data);
   }
 }
 
