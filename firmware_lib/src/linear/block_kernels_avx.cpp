@@ -298,6 +298,7 @@ struct Lanes4 {
   LSLAM_TARGET_AVX_FMA static V fnmadd(V a, V b, V c) { return _mm256_fnmadd_pd(a, b, c); }
   LSLAM_TARGET_AVX_FMA static V mul(V a, V b) { return _mm256_mul_pd(a, b); }
   LSLAM_TARGET_AVX_FMA static V sub(V a, V b) { return _mm256_sub_pd(a, b); }
+  LSLAM_TARGET_AVX_FMA static V add(V a, V b) { return _mm256_add_pd(a, b); }
 };
 
 struct Lanes2 {
@@ -310,6 +311,7 @@ struct Lanes2 {
   LSLAM_TARGET_AVX_FMA static V fnmadd(V a, V b, V c) { return _mm_fnmadd_pd(a, b, c); }
   LSLAM_TARGET_AVX_FMA static V mul(V a, V b) { return _mm_mul_pd(a, b); }
   LSLAM_TARGET_AVX_FMA static V sub(V a, V b) { return _mm_sub_pd(a, b); }
+  LSLAM_TARGET_AVX_FMA static V add(V a, V b) { return _mm_add_pd(a, b); }
 };
 
 // ReflectionCoefficients for D = 6: per reflection j the u entries of factor 0 (c = 0 .. 5), of
@@ -351,8 +353,14 @@ LSLAM_TARGET_AVX_FMA inline void reflectRowHalf6(const ReflectionCoefficients6<M
     V t = l;
 #pragma GCC unroll 2
     for (int m = 0; m < M; ++m) {
-#pragma GCC unroll 6
-      for (int c = 0; c < 6; ++c) t = L::fmadd(x[m][c], L::broadcast(coefficient + 6 * m + c), t);
+      // As applyReflectionsToRows (kSplitSums): products 3-5 apart, then added.
+      const double* u = coefficient + 6 * m;
+      V high = L::mul(x[m][3], L::broadcast(u + 3));
+      high = L::fmadd(x[m][4], L::broadcast(u + 4), high);
+      high = L::fmadd(x[m][5], L::broadcast(u + 5), high);
+#pragma GCC unroll 3
+      for (int c = 0; c < 3; ++c) t = L::fmadd(x[m][c], L::broadcast(u + c), t);
+      t = L::add(t, high);
     }
     const V s = L::mul(L::broadcast(coefficient + 6 * M), t);
     L::store(l_out + 6 * j + L::kFirstRow, L::sub(l, s));
@@ -399,10 +407,13 @@ LSLAM_TARGET_AVX_FMA inline void reflectBottomPair6(const ReflectionCoefficients
     __m256d t = l;
 #pragma GCC unroll 2
     for (int m = 0; m < M; ++m) {
-#pragma GCC unroll 6
-      for (int c = 0; c < 6; ++c) {
-        t = _mm256_fmadd_pd(x[m][c], _mm256_broadcast_sd(coefficient + 6 * m + c), t);
-      }
+      const double* u = coefficient + 6 * m;
+      __m256d high = _mm256_mul_pd(x[m][3], _mm256_broadcast_sd(u + 3));
+      high = _mm256_fmadd_pd(x[m][4], _mm256_broadcast_sd(u + 4), high);
+      high = _mm256_fmadd_pd(x[m][5], _mm256_broadcast_sd(u + 5), high);
+#pragma GCC unroll 3
+      for (int c = 0; c < 3; ++c) t = _mm256_fmadd_pd(x[m][c], _mm256_broadcast_sd(u + c), t);
+      t = _mm256_add_pd(t, high);
     }
     const __m256d s = _mm256_mul_pd(_mm256_broadcast_sd(coefficient + 6 * M), t);
     storeBottomPair(l_out[0] + 6 * j + 4, l_out[1] + 6 * j + 4, _mm256_sub_pd(l, s));

@@ -95,12 +95,17 @@ inline void multiplyByTransposedLower(Eigen::Matrix<double, D, D>& b,
   }
 }
 
+// Whether the reflections of the fused 6 x 6 kernels (K = 6) sum each factor's six products in two
+// chains (0-2 onto t, 3-5 apart, then added) instead of one: the AVX2 form does the same.
+template <int W, int K>
+inline constexpr bool kSplitSums = W == 6 && K == 6;
+
 // [x_l x_w[0] .. x_w[M-1]] H_0 ... H_{C-1} in place, for the rows of x_l (C columns) and of each
 // x_w[m] (W columns; any row count): the reflections of the row update, which rotates M factors'
 // rows (M = 1, or 2 for two factors taken together) into a column of width C. H_j = I - beta(j)
 // v_j v_j^T with v_j = e_j + [0; u[0].col(j); ..; u[M-1].col(j)]. Per row and reflection:
-// t = x_l(j) + sum_m sum_c x_w[m](c) u[m](c, j) (m, then c ascending), s = beta(j) t,
-// x_l(j) -= s, x_w[m](c) -= s u[m](c, j), each multiply-add as multiplyAdd<K>.
+// t = x_l(j) + sum_m sum_c x_w[m](c) u[m](c, j) (m, then c ascending; see kSplitSums), s = beta(j)
+// t, x_l(j) -= s, x_w[m](c) -= s u[m](c, j), each multiply-add as multiplyAdd<K>.
 template <int C, int W, int M, int K, typename XL, typename XW>
 inline void applyReflectionsToRows(const Eigen::Matrix<double, W, C>* u,
                                    const Eigen::Matrix<double, C, 1>& beta, XL& x_l,
@@ -122,8 +127,18 @@ inline void applyReflectionsToRows(const Eigen::Matrix<double, W, C>* u,
       double t = l[j];
 #pragma GCC unroll 2
       for (int m = 0; m < M; ++m) {
+        if constexpr (kSplitSums<W, K>) {
+          // Two chains of three, joined by one add: a shorter dependency chain per reflection.
+          double high = x[m][3] * u[m](3, j);
+          high = multiplyAdd<K>(x[m][4], u[m](4, j), high);
+          high = multiplyAdd<K>(x[m][5], u[m](5, j), high);
+#pragma GCC unroll 3
+          for (int c = 0; c < 3; ++c) t = multiplyAdd<K>(x[m][c], u[m](c, j), t);
+          t += high;
+        } else {
 #pragma GCC unroll 6
-        for (int c = 0; c < W; ++c) t = multiplyAdd<K>(x[m][c], u[m](c, j), t);
+          for (int c = 0; c < W; ++c) t = multiplyAdd<K>(x[m][c], u[m](c, j), t);
+        }
       }
       const double s = beta(j) * t;
       l[j] -= s;
