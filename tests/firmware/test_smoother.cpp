@@ -438,6 +438,56 @@ TEST_CASE("Slam2D and Slam3D streams with observations before odometry: the same
   CHECK(smoother2->landmarks() > 10);
 }
 
+// An update that adds two poses with its factors listed [between(x1, x2), between(x0, x1), a loop
+// closure] takes the row update. Rotated in that order, the first factor would give x1 full rank
+// and x2 none: exactly none with exact measurements and identity information, which would reject
+// a valid update. Against a twin fed the same factors in a friendly order.
+template <class Model, class S>
+void checkTwoAddedPoses() {
+  using Var = lslam::ModelVariableInput<Model>;
+  using Fac = lslam::ModelFactorInput<Model>;
+  lslam::SolverOptions options = lslam::defaultSolverOptions<Model>();
+  options.reorder_min_variables = 1000;  // no reordering: the update must take the row update
+  auto adverse = std::make_unique<S>(options);
+  auto friendly = std::make_unique<S>(options);
+  const SE2 move(1.0, 0.0, 0.0);
+  const Mat3 identity = Mat3::Identity();
+  for (Index k = 0; k < 40; ++k) {
+    const std::vector<Var> variables = {Var::make(k, SE2(static_cast<double>(k), 0.0, 0.0))};
+    std::vector<Fac> factors;
+    if (k > 0)
+      factors.push_back(Fac::template make<lslam::BetweenSE2Factor>(k - 1, k, move, identity));
+    for (S* s : {adverse.get(), friendly.get()}) {
+      REQUIRE(s->update(variables.data(), 1, factors.data(), static_cast<Index>(factors.size())) ==
+              Status::Ok);
+    }
+  }
+  const std::vector<Var> variables = {Var::make(40, SE2(40.0, 0.0, 0.0)),
+                                      Var::make(41, SE2(41.0, 0.0, 0.0))};
+  const Fac between_new = Fac::template make<lslam::BetweenSE2Factor>(40, 41, move, identity);
+  const Fac odometry = Fac::template make<lslam::BetweenSE2Factor>(39, 40, move, identity);
+  const Fac closure =
+      Fac::template make<lslam::BetweenSE2Factor>(0, 41, SE2(41.0, 0.0, 0.0), identity);
+  const std::vector<Fac> adverse_order = {between_new, odometry, closure};
+  const std::vector<Fac> friendly_order = {odometry, between_new, closure};
+  lslam::UpdateResult r;
+  REQUIRE(adverse->update(variables.data(), 2, adverse_order.data(), 3, &r) == Status::Ok);
+  CHECK(r.reordered == false);
+  CHECK(r.variables_relinearized == 0);
+  REQUIRE(friendly->update(variables.data(), 2, friendly_order.data(), 3) == Status::Ok);
+  for (Index v = 0; v < adverse->variables(); ++v) {
+    const Eigen::Vector3d a = vec(adverse->template estimateAt<SE2>(v));
+    const Eigen::Vector3d b = vec(friendly->template estimateAt<SE2>(v));
+    CHECK((a - b).cwiseAbs().maxCoeff() < 1e-9);
+  }
+  CHECK(std::abs(adverse->chi2() - friendly->chi2()) < 1e-9);
+}
+
+TEST_CASE("two poses added in one update, their factors in an adverse order (one and two sizes)") {
+  checkTwoAddedPoses<PoseSlam2D, SmootherPoses2D>();
+  checkTwoAddedPoses<Slam2D, Smoother2D>();
+}
+
 TEST_CASE(
     "PoseSlam3D streams (one block size, row updates): optimize() reaches the batch optimum") {
   const unsigned seeds[] = {5, 13};

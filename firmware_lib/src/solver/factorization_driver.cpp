@@ -172,7 +172,7 @@ Status FactorizationDriver<Graph, Factor>::factorizeOnce(Ordering& ordering, boo
                             [this](Index column) { factor_.markStructureChanged(column); });
   }
   if (!full && relinearized.count == 0 && options_.row_updates && reachesBack(position_of)) {
-    Status s = addRowsOfAddedFactors(position_of);
+    Status s = addRowsOfAddedFactors(position_of, new_columns);
     if (s == Status::Ok) s = factor_.finishRowUpdate();
     if (s == Status::Ok) {
       factor_.commit();
@@ -260,12 +260,14 @@ bool FactorizationDriver<Graph, Factor>::factorReachesBack(Index f,
 
 // The factors that reach back (loop closures) go in pairs, each pair rotated together along the
 // part of their paths they share; the rest (odometry: the last two columns) one by one. With mixed
-// block sizes the seeding factors go first (see seedAddedColumns).
+// block sizes, or more than one added column, the seeding factors go first (see seedAddedColumns).
 template <class Graph, class Factor>
-Status FactorizationDriver<Graph, Factor>::addRowsOfAddedFactors(const Index* position_of) {
+Status FactorizationDriver<Graph, Factor>::addRowsOfAddedFactors(const Index* position_of,
+                                                                 Index new_columns) {
   using FactorRows = typename Factor::FactorRows;
   Index num_seeds = 0;
-  if constexpr (!Factor::kUniform) {
+  // One size and one added column (an online step): the first factor to reach it seeds it.
+  if (!Factor::kUniform || new_columns > 1) {
     const Status s = seedAddedColumns(position_of, &num_seeds);
     if (s != Status::Ok) return s;
   }
@@ -304,10 +306,10 @@ Status FactorizationDriver<Graph, Factor>::addRowsOfAddedFactors(const Index* po
 // factor with fewer error rows than the column is wide (a point observation into a pose) leaves a
 // zero pivot. The validator guarantees each added variable a factor that fixes it alone (a
 // between factor or a prior for a pose, an observation for a landmark), with as many error rows
-// as the variable has degrees of freedom. Such factors go first, one by one, each once every
-// other added column it holds is seeded (an observation of an added landmark from the added pose
-// waits for the pose's between factor). Their indices go to last_list, ascending, for
-// addRowsOfAddedFactors to skip.
+// as the variable has degrees of freedom. Such factors go first, one by one, each once it holds a
+// single added column not seeded yet (an observation of an added landmark from the added pose
+// waits for the pose's between factor; a between factor of two added poses, for one of them to
+// be seeded). Their indices go to last_list, ascending, for addRowsOfAddedFactors to skip.
 template <class Graph, class Factor>
 Status FactorizationDriver<Graph, Factor>::seedAddedColumns(const Index* position_of,
                                                             Index* num_seeds) {
@@ -334,27 +336,27 @@ Status FactorizationDriver<Graph, Factor>::seedAddedColumns(const Index* positio
   return s;
 }
 
-// Whether factor f can seed now: it gives an added column not yet seeded its first rows, of full
-// rank, and every other added column it holds is seeded or gets full rank from it too. If so,
-// marks its added columns seeded.
+// Whether factor f can seed now: exactly one added column it holds is not seeded yet, and f's
+// rows give it full rank (a factor of m rows has rank m in all: between two unseeded added poses
+// it can seed only one of them, the other would get no rank). If so, marks that column seeded.
 template <class Graph, class Factor>
 bool FactorizationDriver<Graph, Factor>::seedsColumns(Index f, const Index* position_of) {
   using Adapter = GraphAdapter<Graph>;
-  const int rows = Adapter::errorRows(graph_, f);
   const Index variables[2] = {graph_.firstVariable(f), graph_.secondVariable(f)};
-  bool seeds = false;
+  Index unseeded = kNoIndex;
   for (const Index v : variables) {
     if (v == kNoIndex || position_of[v] < factor_.columns() || a_.in_last[position_of[v]] != 0) {
       continue;  // no variable, a committed column, or one seeded already
     }
-    if (Adapter::dofOfKind(Adapter::kindOf(graph_, v)) > rows) return false;
-    seeds = true;
+    if (unseeded != kNoIndex) return false;  // two unseeded columns: wait for one to be seeded
+    unseeded = v;
   }
-  for (const Index v : variables) {
-    if (seeds && v != kNoIndex && position_of[v] >= factor_.columns())
-      a_.in_last[position_of[v]] = 1;
+  if (unseeded == kNoIndex) return false;
+  if (Adapter::dofOfKind(Adapter::kindOf(graph_, unseeded)) > Adapter::errorRows(graph_, f)) {
+    return false;
   }
-  return seeds;
+  a_.in_last[position_of[unseeded]] = 1;
+  return true;
 }
 
 template <class Graph, class Factor>

@@ -95,7 +95,7 @@ class FactorizationDriver {
     }
   }
   bool factorReachesBack(Index f, const Index* position_of) const;
-  [[nodiscard]] Status addRowsOfAddedFactors(const Index* position_of);
+  [[nodiscard]] Status addRowsOfAddedFactors(const Index* position_of, Index new_columns);
   [[nodiscard]] Status seedAddedColumns(const Index* position_of, Index* num_seeds);
   bool seedsColumns(Index f, const Index* position_of);
   [[nodiscard]] Status addRowsAlone(Index f, const Index* position_of);
