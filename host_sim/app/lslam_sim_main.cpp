@@ -16,11 +16,9 @@
 #include <string>
 #include <vector>
 
-#include "host_sim/batch_solver.h"
 #include "host_sim/chi2.h"
 #include "host_sim/cli_args.h"
 #include "host_sim/dataset_io.h"
-#include "host_sim/incremental_run.h"
 #include "host_sim/model_batch_solver.h"
 #include "host_sim/model_dataset_io.h"
 #include "host_sim/model_run.h"
@@ -81,21 +79,7 @@ void writeCsv(const std::string& path, const std::vector<StepRecord>& steps) {
   }
 }
 
-// The estimate with every measurement, the solver's anchor as the FIX (so that the file reads
-// back with the same gauge).
-void writeEstimate(const std::string& path, const Dataset2D& d, const IncrementalRun& run) {
-  Dataset2D out;
-  out.name = path;
-  std::vector<std::int64_t> ids;
-  for (const auto& [id, pose] : run.estimate) ids.push_back(id);
-  std::sort(ids.begin(), ids.end());
-  for (std::int64_t id : ids) out.vertices.push_back(Vertex2D{id, run.estimate.at(id), 0});
-  out.edges = d.edges;
-  if (run.anchor >= 0) out.fixed = {FixedPose{run.anchor, 0}};
-  writeG2oFile(path, out);
-}
-
-// What `run` reports, from either solver: the JSON keys and the summary lines.
+// What `run` reports: the JSON keys and the summary lines.
 struct RunSummary {
   const char* order = "online";
   std::size_t poses = 0, landmarks = 0, factors = 0, steps = 0;
@@ -184,9 +168,8 @@ int report(const RunArgs& args, const RunSummary& summary) {
   return 0;
 }
 
-// The batch reference's figures (BatchResult or ModelBatchResult).
-template <class Batch>
-void setBatch(const Batch& batch, RunSummary& r) {
+// The batch reference's figures.
+void setBatch(const ModelBatchResult& batch, RunSummary& r) {
   r.chi2_batch = batch.chi2;
   r.batch_converged = batch.converged;
   r.batch_iterations = batch.iterations;
@@ -194,9 +177,8 @@ void setBatch(const Batch& batch, RunSummary& r) {
   r.batch_stop_reason = batch.stop_reason;
 }
 
-// The incremental run's figures (IncrementalRun or ModelRun).
-template <class Run>
-void setRun(const Run& inc, RunSummary& r) {
+// The incremental run's figures.
+void setRun(const ModelRun& inc, RunSummary& r) {
   r.steps = inc.steps.size();
   r.total_seconds = inc.total_seconds;
   setStepTimes(inc.steps, r);
@@ -232,17 +214,23 @@ void writeModelEstimate(const std::string& path, const ModelDataset& d, const Mo
   writeModelG2oFile(path, out);
 }
 
-// A dataset with 3D poses or landmarks, through Smoother<Model>.
+// Any dataset, through Smoother<Model> of its model.
 int runModel(const RunArgs& args, const ModelDataset& d) {
-  if (args.order != StepOrder::Online) {
-    std::fprintf(stderr, "lslam-sim: %s: --order file is for 2D pose graphs; this dataset has %s\n",
-                 args.dataset.c_str(), d.dimension == 3 ? "3D poses" : "landmarks");
+  if (args.order != StepOrder::Online && hasLandmarks(d)) {
+    std::fprintf(stderr,
+                 "lslam-sim: %s: --order file is for pose graphs; this dataset has landmarks\n",
+                 args.dataset.c_str());
+    return 1;
+  }
+  if (d.vertices.empty() && d.factors.empty()) {
+    std::fprintf(stderr, "lslam-sim: %s: no poses/edges to run\n", args.dataset.c_str());
     return 1;
   }
   const ModelRun inc = runModelIncremental(d, incrementalOptions(args));
   if (!inc.gauge_note.empty())
     std::fprintf(stderr, "lslam-sim: note: %s\n", inc.gauge_note.c_str());
   RunSummary r;
+  r.order = args.order == StepOrder::Online ? "online" : "file";
   r.poses = static_cast<std::size_t>(inc.poses);
   r.landmarks = static_cast<std::size_t>(inc.landmarks);
   r.factors = d.factors.size();
@@ -264,44 +252,10 @@ int runModel(const RunArgs& args, const ModelDataset& d) {
   return report(args, r);
 }
 
-// A 2D pose graph, through PoseGraphSolver2D.
-int runPoseGraph2D(const RunArgs& args) {
-  const Dataset2D d = readDataset2D(args.dataset);
-  if (d.vertices.empty() && d.edges.empty()) {
-    std::fprintf(stderr, "lslam-sim: %s: no poses/edges to run\n", args.dataset.c_str());
-    return 1;
-  }
-  const IncrementalRun inc = runIncremental(d, incrementalOptions(args));
-  if (!inc.gauge_note.empty())
-    std::fprintf(stderr, "lslam-sim: note: %s\n", inc.gauge_note.c_str());
-  RunSummary r;
-  r.order = args.order == StepOrder::Online ? "online" : "file";
-  r.poses = inc.estimate.size();
-  r.factors = d.edges.size();
-  r.chi2_incremental = chi2G2o(d, inc.estimate);
-  r.chi2_initial = chi2G2o(d, inc.initial);
-  // The batch holds the pose the incremental solver anchors fixed (the same gauge), whatever pose
-  // the file's FIX names (runIncremental notes it; FIX of two poses it rejects).
-  BatchOptions batch_options;
-  if (inc.anchor >= 0) batch_options.fixed = {inc.anchor};
-  const BatchResult batch = solveBatch2D(d, inc.initial, batch_options);
-  setBatch(batch, r);
-  for (const auto& [id, p] : inc.estimate) {
-    const Pose2D& q = batch.poses.at(id);
-    r.max_position_diff = std::max(r.max_position_diff, std::hypot(p.x - q.x, p.y - q.y));
-  }
-  setRun(inc, r);
-  if (!args.csv.empty()) writeCsv(args.csv, inc.steps);
-  if (!args.out.empty()) writeEstimate(args.out, d, inc);
-  return report(args, r);
-}
-
 int run(const std::vector<std::string>& argv, const RunArgs& args) {
-  // Every format reads as a model dataset; 2D pose graphs run on PoseGraphSolver2D (read again by
-  // its own reader), the rest on Smoother<Model>, whose options start from the model's defaults
-  // (the command line, already checked, parsed again over them).
+  // Every format reads as a model dataset and runs on Smoother<Model>, whose options start from
+  // the model's defaults (the command line, already checked, parsed again over them).
   const ModelDataset model = readModelDataset(args.dataset);
-  if (isPoseGraph2D(model)) return runPoseGraph2D(args);
   RunArgs model_args;
   model_args.solver = defaultModelOptions(model);
   if (const auto error = parseRunArgs(argv, model_args)) return usageError(*error);

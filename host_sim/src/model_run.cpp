@@ -190,7 +190,7 @@ class Runner {
   Runner(const ModelDataset& d, const IncrementalOptions& options) : d_(d), options_(options) {}
 
   ModelRun run() {
-    const std::vector<ModelStep> steps = buildModelSteps(d_);
+    const std::vector<ModelStep> steps = buildModelSteps(d_, options_.order);
     ModelRun out;
     if (!steps.empty()) out.anchor = steps.front().new_pose;
     out.gauge_note = checkFixed(d_, out.anchor);
@@ -349,6 +349,18 @@ template ModelFactorInput<Slam3D> modelFactorInput<Slam3D>(const ModelDataset&, 
 template ModelFactorInput<PoseSlam3D> modelFactorInput<PoseSlam3D>(const ModelDataset&,
                                                                    const ModelFactor&);
 
+bool hasLandmarks(const ModelDataset& d) {
+  for (const ModelFactor& f : d.factors) {
+    if (f.first.role == VariableRole::Landmark || f.second.role == VariableRole::Landmark) {
+      return true;
+    }
+  }
+  for (const ModelVertex& v : d.vertices) {
+    if (v.key.role == VariableRole::Landmark) return true;
+  }
+  return false;
+}
+
 bool isPoseGraph2D(const ModelDataset& d) {
   if (d.dimension != 2) return false;
   for (const ModelVertex& v : d.vertices) {
@@ -399,32 +411,22 @@ Eigen::MatrixXd solverInformation(const ModelDataset& d, const ModelFactor& f) {
 
 namespace {
 
-// fn(Model*, Solver*) for the model and host solver of `d`: a 3D dataset without landmarks runs on
-// the one-size PoseSlam3D.
+// fn(Model*, Solver*) for the model and host solver of `d`: a dataset without landmarks runs on the
+// one-size PoseSlam2D or PoseSlam3D.
 template <class Fn>
 auto withModelOf(const ModelDataset& d, Fn&& fn) {
+  const bool landmarks = hasLandmarks(d);
   if (d.dimension == 3) {
-    for (const ModelFactor& f : d.factors) {
-      if (f.first.role == VariableRole::Landmark || f.second.role == VariableRole::Landmark) {
-        return fn(static_cast<Slam3D*>(nullptr), static_cast<HostSmoother3D*>(nullptr));
-      }
-    }
+    if (landmarks) return fn(static_cast<Slam3D*>(nullptr), static_cast<HostSmoother3D*>(nullptr));
     return fn(static_cast<PoseSlam3D*>(nullptr), static_cast<HostSmootherPoses3D*>(nullptr));
   }
-  for (const ModelFactor& f : d.factors) {
-    if (f.first.role == VariableRole::Landmark || f.second.role == VariableRole::Landmark) {
-      return fn(static_cast<Slam2D*>(nullptr), static_cast<HostSmoother2D*>(nullptr));
-    }
-  }
+  if (landmarks) return fn(static_cast<Slam2D*>(nullptr), static_cast<HostSmoother2D*>(nullptr));
   return fn(static_cast<PoseSlam2D*>(nullptr), static_cast<HostSmootherPoses2D*>(nullptr));
 }
 
 }  // namespace
 
 ModelRun runModelIncremental(const ModelDataset& d, const IncrementalOptions& options) {
-  if (options.order != StepOrder::Online) {
-    throw std::invalid_argument("datasets with 3D poses or landmarks run in online order only");
-  }
   return withModelOf(d, [&](auto* model, auto* solver) {
     using Model = std::remove_pointer_t<decltype(model)>;
     using Solver = std::remove_pointer_t<decltype(solver)>;

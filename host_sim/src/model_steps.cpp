@@ -113,9 +113,59 @@ VariableKind poseKind(const ModelDataset& d, const ModelStep& step, const Variab
   return d.dimension == 3 ? VariableKind::SE3 : VariableKind::SE2;
 }
 
+// File order (model_steps.h, FILE ORDER): a pose graph's factors as a stream.
+std::vector<ModelStep> buildFileOrderSteps(const ModelDataset& d) {
+  std::vector<ModelStep> steps;
+  std::unordered_set<std::int64_t> known;
+  for (std::size_t i = 0; i < d.factors.size(); ++i) {
+    const ModelFactor& f = d.factors[i];
+    checkFactor(d, f);
+    if (!isBetween(f.kind) && !isPosePrior(f.kind)) {
+      throw std::invalid_argument("file order is for pose graphs; " + factorText(f) + " (line " +
+                                  std::to_string(f.line) + ") names a landmark");
+    }
+    std::int64_t a = f.first.id;
+    std::int64_t b = isBetween(f.kind) ? f.second.id : a;
+    if (steps.empty() && a != b) {  // the first between factor: its smaller pose is the anchor
+      steps.push_back(ModelStep{});
+      steps.back().new_pose = {VariableRole::Pose, std::min(a, b)};
+      known.insert(std::min(a, b));
+    }
+    if (known.count(a) != 0) std::swap(a, b);  // a: the unknown pose, if any
+    if (known.count(a) == 0 && known.count(b) == 0 && a != b) {
+      throw DatasetError(d.name, f.line,
+                         factorText(f) +
+                             " introduces two new poses (file order introduces one "
+                             "pose per step)");
+    }
+    if (known.count(a) == 0) {
+      steps.push_back(ModelStep{});
+      steps.back().new_pose = {VariableRole::Pose, a};
+      known.insert(a);
+    }
+    steps.back().factors.push_back(i);
+  }
+  for (const ModelVertex& v : d.vertices) {
+    if (steps.empty() && v.key.role == VariableRole::Pose) {
+      steps.push_back(ModelStep{});  // no factors: the first vertex is the only step
+      steps.back().new_pose = v.key;
+      known.insert(v.key.id);
+    }
+    if (v.key.role == VariableRole::Landmark) {
+      throw std::invalid_argument("file order is for pose graphs; line " + std::to_string(v.line) +
+                                  " declares " + keyText(v.key));
+    }
+    if (known.count(v.key.id) == 0) {
+      throw DatasetError(d.name, v.line, keyText(v.key) + " (vertex) has no factor");
+    }
+  }
+  return steps;
+}
+
 }  // namespace
 
-std::vector<ModelStep> buildModelSteps(const ModelDataset& d) {
+std::vector<ModelStep> buildModelSteps(const ModelDataset& d, StepOrder order) {
+  if (order == StepOrder::File) return buildFileOrderSteps(d);
   std::vector<ModelStep> steps;
   if (d.vertices.empty() && d.factors.empty()) return steps;
 
@@ -228,7 +278,7 @@ Eigen::VectorXd initialValue(const ModelDataset& d, const ModelStep& step, const
         checkMeasurement(f);
         return f.measurement;
       }
-      if (!isBetween(f.kind)) continue;
+      if (!isBetween(f.kind) || (f.first != key && f.second != key)) continue;
       checkMeasurement(f);
       const bool se3 = f.kind == FactorKind::BetweenSE3;
       const VariableKind kind = se3 ? VariableKind::SE3 : VariableKind::SE2;
@@ -240,8 +290,11 @@ Eigen::VectorXd initialValue(const ModelDataset& d, const ModelStep& step, const
       const Eigen::VectorXd& xj = valueOf(current, f.second, kind, f);
       return se3 ? composeSE3(xj, inverseSE3(z)) : composeSE2(xj, inverseSE2(z));
     }
-    // The first pose without prior: the origin.
+    // The first pose without prior: its vertex's value (the file's frame), else the origin.
     const VariableKind kind = poseKind(d, step, key);
+    for (const ModelVertex& v : d.vertices) {
+      if (v.key == key && v.kind == kind && v.value.size() == parameterCount(kind)) return v.value;
+    }
     Eigen::VectorXd v = Eigen::VectorXd::Zero(parameterCount(kind));
     if (kind == VariableKind::SE3) v[6] = 1.0;
     return v;

@@ -378,7 +378,7 @@ TEST_CASE("model steps: errors and their lines") {
 
 TEST_CASE("model steps: degenerate datasets") {
   CHECK(buildModelSteps(ModelDataset{}).empty());
-  ModelDataset d;  // one pose vertex: one step without factors, the origin
+  ModelDataset d;  // one pose vertex: one step without factors, at the vertex's value
   ModelVertex v;
   v.key = pose(4);
   v.value = Eigen::Vector3d(1, 2, 3);
@@ -387,7 +387,7 @@ TEST_CASE("model steps: degenerate datasets") {
   REQUIRE(steps.size() == 1);
   CHECK(steps[0].new_pose == pose(4));
   CHECK(steps[0].factors.empty());
-  CHECK(initialValue(d, steps[0], pose(4), {}) == Eigen::Vector3d::Zero());
+  CHECK(initialValue(d, steps[0], pose(4), {}) == Eigen::Vector3d(1, 2, 3));
   // Only a declared landmark with a prior: one step without a pose.
   v.key = lm(2);
   v.kind = VariableKind::Point2;
@@ -399,6 +399,66 @@ TEST_CASE("model steps: degenerate datasets") {
   CHECK(steps[0].new_landmarks == std::vector<VariableKey>{lm(2)});
   CHECK(steps[0].factors == std::vector<std::size_t>{0});
   CHECK(initialValue(d, steps[0], lm(2), {}) == Eigen::Vector2d(5, 6));
+}
+
+TEST_CASE("model steps: file order of a pose graph") {
+  // World2's poses out of time order: 1 -> 2 first, pose 0 enters late through 0 -> 1.
+  const World2 w = makeWorld2();
+  const auto rel = [&](int i, int j) { return params2(mat2(w.x[i]).inverse() * mat2(w.x[j])); };
+  ModelDataset d;
+  d.name = "file-order";
+  d.factors = {
+      factor(FactorKind::BetweenSE2, pose(1), pose(2), rel(1, 2), 1),
+      factor(FactorKind::BetweenSE2, pose(3), pose(2), rel(3, 2), 2),  // stored new -> known
+      factor(FactorKind::BetweenSE2, pose(1), pose(3), rel(1, 3), 3),  // both known: this step
+      factor(FactorKind::BetweenSE2, pose(0), pose(1), rel(0, 1), 4),  // an older id enters last
+      factor(FactorKind::PriorSE2, pose(3), {}, w.x[3], 5),
+  };
+  ModelVertex v;
+  v.key = pose(1);
+  v.value = w.x[1];
+  v.line = 9;
+  d.vertices = {v};
+  const auto steps = buildModelSteps(d, sim::StepOrder::File);
+  REQUIRE(steps.size() == 4);
+  CHECK(steps[0].new_pose == pose(1));
+  CHECK(steps[0].factors.empty());
+  CHECK(steps[1].new_pose == pose(2));
+  CHECK(steps[1].factors == std::vector<std::size_t>{0});
+  CHECK(steps[2].new_pose == pose(3));
+  CHECK(steps[2].factors == std::vector<std::size_t>{1, 2});
+  CHECK(steps[3].new_pose == pose(0));
+  CHECK(steps[3].factors == std::vector<std::size_t>{3, 4});
+  // Noise-free, from the first pose's vertex (the file's frame): the chain is the truth.
+  const ModelEstimate est = chain(d, steps);
+  for (int k = 0; k < 4; ++k) CHECK(distance(VariableKind::SE2, est.at(pose(k)), w.x[k]) < 1e-12);
+  // The online order of the same file also starts from pose 0's value: it has no vertex, so the
+  // origin, and pose 3's prior then fixes nothing of pose 0.
+  const auto online = buildModelSteps(d);
+  CHECK(initialValue(d, online[0], pose(0), {}) == Eigen::Vector3d::Zero());
+
+  // Errors: two new poses (its line), a pose vertex no factor names (the vertex line), landmarks.
+  ModelDataset two = d;
+  two.factors.push_back(factor(FactorKind::BetweenSE2, pose(7), pose(8), rel(0, 1), 6));
+  try {
+    (void)buildModelSteps(two, sim::StepOrder::File);
+    FAIL("no DatasetError");
+  } catch (const DatasetError& e) {
+    CHECK(e.line() == 6);
+    CHECK(std::string(e.what()).find("two new poses") != std::string::npos);
+  }
+  ModelDataset lonely = d;
+  v.key = pose(9);
+  v.line = 11;
+  lonely.vertices.push_back(v);
+  try {
+    (void)buildModelSteps(lonely, sim::StepOrder::File);
+    FAIL("no DatasetError");
+  } catch (const DatasetError& e) {
+    CHECK(e.line() == 11);
+  }
+  CHECK_THROWS_AS((void)buildModelSteps(makeWorld2().d, sim::StepOrder::File),
+                  std::invalid_argument);
 }
 
 TEST_CASE("model steps: real files") {

@@ -1,7 +1,7 @@
 #pragma once
 // Feeds a dataset of any model (2D or 3D poses, with or without point landmarks) step by step, in
-// online order (model_steps.h), to the firmware's Smoother<Model> and records what each step cost:
-// the counterpart of incremental_run.h for the models the 2D pose-graph solver does not take.
+// online or file order (model_steps.h), to the firmware's Smoother<Model> and records what each
+// step cost.
 //
 // The solver's factors have g2o's errors (factors/se2_factors.h, se3_factors.h). A factor of a
 // dataset in the iSAM convention whose error differs is handed over with its information carried
@@ -34,13 +34,13 @@ struct ModelRun {
   std::string gauge_note;  // "file:line: FIX ..." when the file fixes another pose (else empty)
 };
 
-// Runs `d` in online order (options.order must be StepOrder::Online: std::invalid_argument
-// otherwise). The solver anchors the first step's pose; FIX keys as in runIncremental (one other
-// fixed pose is noted in gauge_note, a second fixed pose throws DatasetError at its line; the
-// file's FIX lines carry no line here, so the error names line 0). If the solver rejects a step,
-// throws DatasetError at the line of the step's first factor, naming the step, its pose, the
-// lines of its factors and the solver's status. A dataset beyond the host solver's capacity is
-// such a rejection (Status::CapacityExceeded). Whatever buildModelSteps throws.
+// Runs `d` in options.order (file order: pose graphs only, else std::invalid_argument). The solver
+// anchors the first step's pose; FIX keys as in runIncremental (one other fixed pose is noted in
+// gauge_note, a second fixed pose throws DatasetError at its line; the file's FIX lines carry no
+// line here, so the error names line 0). If the solver rejects a step, throws DatasetError at the
+// line of the step's first factor, naming the step, its pose, the lines of its factors and the
+// solver's status. A dataset beyond the host solver's capacity is such a rejection
+// (Status::CapacityExceeded). Whatever buildModelSteps throws.
 ModelRun runModelIncremental(const ModelDataset& d, const IncrementalOptions& options);
 
 // The information of `f` in the solver's error coordinates: ModelFactor::information itself for
@@ -62,6 +62,9 @@ ModelFactorInput<Model> modelFactorInput(const ModelDataset& d, const ModelFacto
 // The solver options the model `d` runs on start from (lslam::defaultSolverOptions of the model
 // runModelIncremental picks: Slam2D, Slam3D or PoseSlam3D).
 SolverOptions defaultModelOptions(const ModelDataset& d);
+
+// Whether a factor or a vertex of `d` names a landmark.
+bool hasLandmarks(const ModelDataset& d);
 
 // Whether `d` is a 2D pose graph (only SE2 poses and BetweenSE2/PriorSE2 factors): the datasets
 // PoseGraphSolver2D runs (incremental_run.h).

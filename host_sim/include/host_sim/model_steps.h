@@ -1,10 +1,11 @@
 #pragma once
-// The online order in which `lslam-sim run` feeds a dataset of any model (model_dataset.h) to the
+// The order in which `lslam-sim run` feeds a dataset of any model (model_dataset.h) to the
 // incremental solver, and the initial values of the variables each step introduces. Host-only;
 // independent of firmware_lib (its own small geometry, as model_chi2.h).
 //
-// STEPS. The poses are every Pose key of a vertex or a factor; they enter in ascending id order
-// (time order in these files), one per step: step k introduces the k-th smallest pose id and holds
+// STEPS (StepOrder::Online, the order a robot produces the data). The poses are every Pose key of a
+// vertex or a factor; they enter in ascending id order (time order in these files), one per step:
+// step k introduces the k-th smallest pose id and holds
 //   - every BetweenSE2/SE3 whose newer (larger-id) pose is that pose,
 //   - every PriorSE2/SE3 on that pose,
 //   - every observation (PointXY2, RangeBearing2, PointXYZ3) made from that pose,
@@ -31,15 +32,25 @@
 //     prior: a prior on a landmark nothing else names is most likely a wrong id);
 //   - a landmark vertex with no factor at all (its vertex line): an unconstrained variable.
 // The first pose needs no factor: the solver anchors it.
-// An empty dataset (no vertices, no factors) gives no steps. FIX keys and vertex values are not
-// used: an online solver starts from the measurements alone.
+// An empty dataset (no vertices, no factors) gives no steps. FIX keys are not used, nor are vertex
+// values but the first pose's.
+//
+// FILE ORDER (StepOrder::File, a pose graph's factors as a stream; landmarks:
+// std::invalid_argument). The first between factor's smaller pose is step 0's pose (no factors),
+// unless a prior comes first (then step 0 is that prior's pose, with it). Then factors are walked
+// in file order: one naming a pose not seen yet starts a step introducing that pose (the step is
+// that factor and the following ones until the next new pose); one whose poses are all known goes
+// into the current (last) step; one naming two unknown poses throws DatasetError at its line, as
+// does a pose vertex no factor names (at the vertex line). No factors: the first pose vertex is the
+// only step. intel.g2o, whose edges are listed out of time order, stops at its second edge.
 //
 // INITIAL VALUES (initialValue). From `current`, the estimate of the variables introduced by
 // earlier steps and, for a landmark, of the step's new pose (initialise the pose first):
 //   - the new pose: from the first factor of the step, in step order, that is a prior on it (its
-//     measurement) or a between factor (every between factor of a step links its new pose to an
-//     older pose): Xi * Z for a factor stored i -> new, Xj * Z^-1 for one stored new -> j; with
-//     neither (the first pose), the identity;
+//     measurement) or a between factor naming it (online, every between factor of a step links
+//     its new pose to an older pose): Xi * Z for a factor stored i -> new, Xj * Z^-1 for one stored
+//     new -> j; with neither (the first pose), its vertex's value if the file declares it (the
+//     estimate stays in the file's frame), else the identity;
 //   - a new landmark: from its first observation in the step, with x the observing pose:
 //     PointXY2 / PointXYZ3 t + R z, RangeBearing2 t + R (r cos b, r sin b); a landmark without
 //     observation: its first prior's measurement.
@@ -52,6 +63,7 @@
 
 #include "host_sim/model_chi2.h"
 #include "host_sim/model_dataset.h"
+#include "host_sim/steps.h"
 
 namespace lslam::sim {
 
@@ -61,7 +73,7 @@ struct ModelStep {
   std::vector<std::size_t> factors;              // indices into ModelDataset::factors, file order
 };
 
-std::vector<ModelStep> buildModelSteps(const ModelDataset& d);
+std::vector<ModelStep> buildModelSteps(const ModelDataset& d, StepOrder order = StepOrder::Online);
 
 // The initial value of `key`, a variable `step` introduces (its new pose or one of its
 // new_landmarks), in its kind's parameters, from `current` (see INITIAL VALUES above). Throws
