@@ -14,7 +14,6 @@
 #include <stdexcept>
 #include <string>
 
-#include "host_sim/dataset_io.h"
 #include "host_sim/model_dataset_io.h"
 #include "host_sim/model_run.h"
 #include "host_sim/model_stream_header.h"
@@ -28,7 +27,7 @@ std::string header(const std::string& path) {
   const std::string file = source.filename().string(), name = source.stem().string();
   const lslam::sim::ModelDataset d = lslam::sim::readModelDataset(path);
   if (lslam::sim::isPoseGraph2D(d)) {
-    return lslam::sim::streamHeader(lslam::sim::readDataset2D(path), file, name);
+    return lslam::sim::streamHeader(d, file, name);
   }
   return lslam::sim::modelStreamHeader(d, file, name);
 }

@@ -6,13 +6,14 @@
 #include <charconv>
 #include <cstdint>
 #include <stdexcept>
+#include <utility>
 #include <vector>
 
 #include "header_text.h"
-#include "host_sim/batch_solver.h"
-#include "host_sim/chi2.h"
-#include "host_sim/incremental_run.h"
-#include "host_sim/steps.h"
+#include "host_sim/model_batch_solver.h"
+#include "host_sim/model_chi2.h"
+#include "host_sim/model_run.h"
+#include "host_sim/model_steps.h"
 
 namespace lslam::sim {
 namespace {
@@ -56,38 +57,45 @@ void checkIdentifier(const std::string& s) {
   detail::checkIdentifier(s, "streamHeader");
 }
 
-std::string poseList(const Estimate2D& poses) {
-  std::vector<std::int64_t> ids;
-  for (const auto& [pose_id, pose] : poses) ids.push_back(pose_id);
-  std::sort(ids.begin(), ids.end());
+// Poses by id: x, y, theta.
+std::string poseList(const ModelEstimate& poses) {
+  std::vector<std::pair<std::int64_t, const Eigen::VectorXd*>> sorted;
+  for (const auto& [key, value] : poses) sorted.emplace_back(key.id, &value);
+  std::sort(sorted.begin(), sorted.end());
   std::string out;
-  for (std::int64_t i : ids) {
-    const Pose2D& p = poses.at(i);
-    out +=
-        "    {" + id(i) + ", " + number(p.x) + ", " + number(p.y) + ", " + number(p.theta) + "},\n";
+  for (const auto& [pose_id, p] : sorted) {
+    out += "    {" + id(pose_id) + ", " + number((*p)[0]) + ", " + number((*p)[1]) + ", " +
+           number((*p)[2]) + "},\n";
   }
   return out;
 }
 
-std::string factorLine(const Edge2D& e) {
-  const Eigen::Matrix3d& m = e.information;
-  return "    {" + id(e.from) + ", " + id(e.to) + ", " + number(e.measurement.x) + ", " +
-         number(e.measurement.y) + ", " + number(e.measurement.theta) + ", {" + number(m(0, 0)) +
-         ", " + number(m(0, 1)) + ", " + number(m(0, 2)) + ", " + number(m(1, 1)) + ", " +
-         number(m(1, 2)) + ", " + number(m(2, 2)) + "}},\n";
+// A between factor as the solver takes it (g2o's information, or iSAM's carried over).
+std::string factorLine(const ModelDataset& d, const ModelFactor& f) {
+  if (f.kind != FactorKind::BetweenSE2) {
+    throw std::invalid_argument(std::string("streamHeader: factor kind ") + factorKindName(f.kind) +
+                                " not in the stream's format");
+  }
+  const Eigen::MatrixXd m = solverInformation(d, f);
+  const Eigen::VectorXd& z = f.measurement;
+  return "    {" + id(f.first.id) + ", " + id(f.second.id) + ", " + number(z[0]) + ", " +
+         number(z[1]) + ", " + number(z[2]) + ", {" + number(m(0, 0)) + ", " + number(m(0, 1)) +
+         ", " + number(m(0, 2)) + ", " + number(m(1, 1)) + ", " + number(m(1, 2)) + ", " +
+         number(m(2, 2)) + "}},\n";
 }
 
 // kSteps and kFactors: the factors listed step after step.
-std::string stepArrays(const Dataset2D& d, const std::vector<Step>& steps,
-                       const IncrementalRun& run) {
+std::string stepArrays(const ModelDataset& d, const std::vector<ModelStep>& steps,
+                       const ModelRun& run) {
   std::string step_lines, factor_lines;
   std::size_t factors = 0;
   for (std::size_t s = 0; s < steps.size(); ++s) {
     const bool loop = run.steps[s].kind == StepKind::LoopClosure;
-    step_lines += "    {" + id(steps[s].new_pose) + ", " + std::to_string(factors) + ", " +
-                  std::to_string(steps[s].edges.size()) + ", " + (loop ? "true" : "false") + "},\n";
-    for (std::size_t e : steps[s].edges) factor_lines += factorLine(d.edges[e]);
-    factors += steps[s].edges.size();
+    step_lines += "    {" + id(steps[s].new_pose.id) + ", " + std::to_string(factors) + ", " +
+                  std::to_string(steps[s].factors.size()) + ", " + (loop ? "true" : "false") +
+                  "},\n";
+    for (std::size_t k : steps[s].factors) factor_lines += factorLine(d, d.factors[k]);
+    factors += steps[s].factors.size();
   }
   return "inline constexpr std::int32_t kNumSteps = " + std::to_string(steps.size()) +
          ";\ninline constexpr std::int32_t kNumFactors = " + std::to_string(factors) +
@@ -97,14 +105,23 @@ std::string stepArrays(const Dataset2D& d, const std::vector<Step>& steps,
 
 }  // namespace
 
-std::string streamHeader(const Dataset2D& d, const std::string& source_name,
+std::string streamHeader(const ModelDataset& d, const std::string& source_name,
                          const std::string& name_space) {
   checkIdentifier(name_space);
-  const std::vector<Step> steps = buildSteps(d, StepOrder::Online);
+  if (!isPoseGraph2D(d)) throw std::invalid_argument("streamHeader: not a 2D pose graph");
+  for (const ModelFactor& f : d.factors) (void)(id(f.first.id) + id(f.second.id));  // 32 bits
+  const std::vector<ModelStep> steps = buildModelSteps(d);
   if (steps.empty()) throw std::invalid_argument("streamHeader: the dataset has no pose");
-  const IncrementalRun run = runIncremental(d, IncrementalOptions{});
-  const BatchResult batch = solveBatch2D(d, run.initial, BatchOptions{});
-  const Pose2D& first = run.initial.at(steps.front().new_pose);
+  IncrementalOptions options;
+  options.solver = defaultModelOptions(d);
+  const ModelRun run = runModelIncremental(d, options);
+  if (run.steps.size() != steps.size()) {
+    throw std::logic_error("streamHeader: the run's steps differ from buildModelSteps");
+  }
+  BatchOptions batch_options;
+  batch_options.fixed.push_back(run.anchor.id);
+  const ModelBatchResult batch = solveModelBatch(d, run.initial, batch_options);
+  const Eigen::VectorXd& first = run.initial.at(steps.front().new_pose);
 
   std::string out = "// Generated by lslam-stream-header from " + source_name +
                     ": do not edit.\n"
@@ -115,16 +132,18 @@ std::string streamHeader(const Dataset2D& d, const std::string& source_name,
                     "#pragma once\n#include <cstdint>\n\n" +
                     std::string(kTypes) + "\nnamespace lslam::stream::" + name_space + " {\n\n";
   out += stepArrays(d, steps, run);
-  out += "inline constexpr StreamPose kFirstPose = {" + id(steps.front().new_pose) + ", " +
-         number(first.x) + ", " + number(first.y) + ", " + number(first.theta) + "};\n";
-  out += "// The host's incremental run (default SolverOptions, solve after every step).\n";
-  out += "inline constexpr double kHostIncrementalChi2 = " + number(chi2G2o(d, run.estimate)) +
+  out += "inline constexpr StreamPose kFirstPose = {" + id(steps.front().new_pose.id) + ", " +
+         number(first[0]) + ", " + number(first[1]) + ", " + number(first[2]) + "};\n";
+  out +=
+      "// The host's incremental run (defaultSolverOptions<PoseSlam2D>(), solve after every "
+      "step).\n";
+  out += "inline constexpr double kHostIncrementalChi2 = " + number(chi2(d, run.estimate)) +
          ";\ninline constexpr StreamPose kHostIncrementalPoses[] = {\n" + poseList(run.estimate) +
          "};\n";
   out += "// The batch optimum (" + std::string(batch.converged ? "converged" : "NOT converged") +
          ", " + std::to_string(batch.iterations) + " iterations).\n";
   out += "inline constexpr double kBatchChi2 = " + number(batch.chi2) +
-         ";\ninline constexpr StreamPose kBatchPoses[] = {\n" + poseList(batch.poses) + "};\n";
+         ";\ninline constexpr StreamPose kBatchPoses[] = {\n" + poseList(batch.values) + "};\n";
   return out + "\n}  // namespace lslam::stream::" + name_space + "\n";
 }
 

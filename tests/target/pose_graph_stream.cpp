@@ -1,5 +1,6 @@
 // The firmware proof: the 500-pose Manhattan stream (data/manhattan_world_500_stream.h, generated
-// on the host) fed step by step through the incremental solver with the host's configuration, on
+// on the host) fed step by step through StaticSmoother<PoseSlam2D, ...> with the host's
+// configuration, on
 // the Cortex-M7 under QEMU. Checks the result against the host's numbers, prints the instruction
 // count of every step and a summary per kind of step. The exit status is the test result.
 //
@@ -9,7 +10,8 @@
 #include <cstdint>
 
 #include "lslam/factors/se2_factors.h"
-#include "lslam/solver/pose_graph_solver_2d.h"
+#include "lslam/models/pose_slam_2d.h"
+#include "lslam/solver/smoother.h"
 #include "lslam_target/instruction_counter.h"
 #include "manhattan_world_500_stream.h"
 #include "step_costs.h"
@@ -18,7 +20,10 @@
 namespace {
 
 namespace stream = lslam::stream::manhattan_world_500;
+using lslam::PoseSlam2D;
 using lslam::target::Line;
+using Variable = lslam::ModelVariableInput<PoseSlam2D>;
+using Measurement = lslam::ModelFactorInput<PoseSlam2D>;
 
 #ifdef LSLAM_TARGET_PERTURB_MEASUREMENT
 constexpr bool kPerturb = true;
@@ -28,25 +33,28 @@ constexpr bool kPerturb = false;
 constexpr std::int32_t kPerturbedFactor = stream::kNumFactors / 2;
 constexpr double kPerturbation = 0.05;  // metres on x: the generator's sigma_x
 
-// Capacity for this stream (500 poses, 971 measurements + the anchor prior). The pool holds the
-// largest live factor (about 6100 blocks) twice over, as a reordering stages a whole new factor.
-using Solver = lslam::StaticPoseGraphSolver2D<512, 1024, 16384>;
+// Capacity for this stream (500 poses, 971 measurements + the anchor prior; 12 factor values per
+// SE2 between or prior). The pool holds the largest live factor (about 6100 blocks) twice over, as
+// a reordering stages a whole new factor (one block size: its blocks hold their values).
+template <lslam::Index P, lslam::Index F, lslam::Index B>
+using SolverOf = lslam::StaticSmoother<PoseSlam2D, P, 0, F, F * 12, B, 0>;
+using Solver = SolverOf<512, 1024, 16384>;
 
 // RAM per unit of capacity, from the sizes of the storage classes: the difference of two solver
 // sizes that differ in one capacity only, divided by that difference (averages the id map's
 // power-of-two table and the padding).
 template <lslam::Index P, lslam::Index F, lslam::Index B>
-constexpr double kBytes = static_cast<double>(sizeof(lslam::StaticPoseGraphSolver2D<P, F, B>));
+constexpr double kBytes = static_cast<double>(sizeof(SolverOf<P, F, B>));
 constexpr double kBytesPerPose = (kBytes<1024, 1024, 16384> - kBytes<512, 1024, 16384>) / 512;
 constexpr double kBytesPerFactor = (kBytes<512, 2048, 16384> - kBytes<512, 1024, 16384>) / 1024;
 constexpr double kBytesPerBlock = (kBytes<512, 1024, 32768> - kBytes<512, 1024, 16384>) / 16384;
 constexpr double kFixedBytes = kBytes<512, 1024, 16384> - 512 * kBytesPerPose -
                                1024 * kBytesPerFactor - 16384 * kBytesPerBlock;
 
-// The host runner's solver configuration (host_sim/src/incremental_run.cpp): default options,
-// with the back-substitution called after each update rather than inside it.
+// The host runner's configuration (host_sim/src/model_run.cpp): the model's default options, with
+// the back-substitution called after each update rather than inside it.
 lslam::SolverOptions hostRunnerOptions() {
-  lslam::SolverOptions options;
+  lslam::SolverOptions options = lslam::defaultSolverOptions<PoseSlam2D>();
   options.solve_after_update = false;
   return options;
 }
@@ -68,29 +76,25 @@ lslam::Mat3 information(const lslam::stream::StreamFactor& f) {
   return m;
 }
 
-lslam::FactorInput factorInput(std::int32_t factor) {
+Measurement factorInput(std::int32_t factor) {
   const lslam::stream::StreamFactor& f = stream::kFactors[factor];
-  lslam::FactorInput input;
-  input.kind = lslam::FactorKind::BetweenSE2;
-  input.from = f.from;
-  input.to = f.to;
-  input.measurement = measurement(factor);
-  input.information = information(f);
-  return input;
+  return Measurement::make<lslam::BetweenSE2Factor>(f.from, f.to, measurement(factor),
+                                                    information(f));
 }
 
 // The pose a step adds: the stream's first pose, or the current estimate of the other end of the
-// step's first measurement composed with that measurement (as host_sim's initialPoseFromEdge).
-bool initialPose(const lslam::stream::StreamStep& step, lslam::PoseInput* pose) {
-  pose->id = step.new_pose;
-  pose->initial = lslam::SE2(stream::kFirstPose.x, stream::kFirstPose.y, stream::kFirstPose.theta);
-  if (step.factor_count == 0) return true;
-  const lslam::stream::StreamFactor& first = stream::kFactors[step.first_factor];
-  const std::int32_t known = first.from == step.new_pose ? first.to : first.from;
-  lslam::SE2 estimate;
-  if (g_solver.estimate(known, &estimate) != lslam::Status::Ok) return false;
-  const lslam::SE2 z = measurement(step.first_factor);
-  pose->initial = estimate.compose(step.new_pose == first.to ? z : z.inverse());
+// step's first measurement composed with that measurement (as host_sim's initialValue).
+bool initialPose(const lslam::stream::StreamStep& step, Variable* pose) {
+  lslam::SE2 initial(stream::kFirstPose.x, stream::kFirstPose.y, stream::kFirstPose.theta);
+  if (step.factor_count > 0) {
+    const lslam::stream::StreamFactor& first = stream::kFactors[step.first_factor];
+    const std::int32_t known = first.from == step.new_pose ? first.to : first.from;
+    lslam::SE2 estimate;
+    if (g_solver.estimate(known, &estimate) != lslam::Status::Ok) return false;
+    const lslam::SE2 z = measurement(step.first_factor);
+    initial = estimate.compose(step.new_pose == first.to ? z : z.inverse());
+  }
+  *pose = Variable::make(step.new_pose, initial);
   return true;
 }
 
@@ -106,9 +110,9 @@ StepKind kindOf(const lslam::stream::StreamStep& step, const lslam::UpdateResult
 // One online step, timed as the host times it: update() and solve(), inputs prepared before.
 lslam::Status runStep(std::int32_t s) {
   const lslam::stream::StreamStep& step = stream::kSteps[s];
-  lslam::PoseInput pose;
+  Variable pose;
   if (!initialPose(step, &pose)) return lslam::Status::UnknownVariable;
-  lslam::FactorInput factors[8];
+  Measurement factors[8];
   if (step.factor_count > 8) return lslam::Status::InvalidArgument;
   for (std::int32_t k = 0; k < step.factor_count; ++k) {
     factors[k] = factorInput(step.first_factor + k);
@@ -123,7 +127,7 @@ lslam::Status runStep(std::int32_t s) {
 }
 
 // g2o chi2 of the solver's estimate over the stream's measurements (the anchor prior excluded),
-// the quantity the host computes with host_sim's chi2G2o.
+// the quantity the host computes with host_sim's chi2.
 double chi2G2o() {
   double chi2 = 0.0;
   for (std::int32_t k = 0; k < stream::kNumFactors; ++k) {
