@@ -41,7 +41,7 @@ int usage() {
                "                 [--reorder-relinearized SHARE] [--reorder-refresh G]\n"
                "                 [--relinearize-full-cost RATIO] [--order-in-one-update]\n"
                "                 [--prepare-min-products N]\n"
-               "                 [--reorder-top] [--no-row-updates] [--no-linearization-cache]\n"
+               "                 [--reorder-top] [--no-row-updates]\n"
                "       lslam-sim generate OUT.g2o [--poses N] [--seed S]\n");
   return 2;
 }

@@ -171,7 +171,6 @@ std::optional<std::string> parseRunArgs(const std::vector<std::string>& argv, Ru
       flag("--json", args.json, true),
       flag("--reorder-top", so.reorder_affected_top, true),
       flag("--no-row-updates", so.row_updates, false),
-      flag("--no-linearization-cache", so.cache_linearizations, false),
       flag("--order-in-one-update", so.prepare_ordering_ahead, false),
       {"--order", true,
        [&](const std::string& option, const std::string& value) -> Error {

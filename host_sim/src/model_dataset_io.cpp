@@ -718,6 +718,7 @@ class Reader {
         role = roleOf(u->second.first);
       }
       d_.fixed.push_back(VariableKey{role, id});
+      d_.fixed_lines.push_back(line);
     }
   }
 

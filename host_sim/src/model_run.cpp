@@ -31,8 +31,10 @@ using HostSmoother3D =
 using HostSmootherPoses3D = StaticSmoother<PoseSlam3D, 8192, 0, 16384, 16384 * 43, 1 << 19, 0>;
 using HostSmootherPoses2D = StaticSmoother<PoseSlam2D, 16384, 0, 32768, 32768 * 12, 1 << 20, 0>;
 
-// Built in memory zeroed beforehand, as the robot's .bss (see incremental_run.cpp): the timed steps
-// do not pay first-touch page faults.
+// On the robot the solver lives in .bss, which the startup code zeroes (and so pages in) before
+// main(). The host does the same: the solver is built in memory zeroed beforehand, so the timed
+// steps do not pay the kernel's first-touch page faults as the block pool's tail advances into
+// the object.
 template <class S>
 struct ZeroedDeleter {
   void operator()(S* s) const {
@@ -157,22 +159,31 @@ StepKind classify(const ModelDataset& d, const ModelStep& step, std::int64_t pre
   throw DatasetError(d.name, line, reason);
 }
 
-// One fixed pose only sets the gauge (noted when it is not the solver's anchor); two are an error.
+// The incremental solver anchors step 0's pose and knows no FIX. One fixed pose only sets the
+// gauge: anchoring another pose gives the same optimum moved rigidly, so a FIX of another pose is
+// noted (and the batch reference anchors the same pose as the solver). Two fixed poses constrain
+// the problem itself, which the solver cannot do: an error at the FIX naming the second one.
 std::string checkFixed(const ModelDataset& d, const VariableKey& anchor) {
-  const VariableKey* first = nullptr;
-  for (const VariableKey& k : d.fixed) {
-    if (k.role != VariableRole::Pose) continue;
-    if (first == nullptr) {
-      first = &k;
-    } else if (k.id != first->id) {
-      throw DatasetError(d.name, 0,
-                         "FIX " + std::to_string(k.id) + ": a second fixed pose (FIX " +
-                             std::to_string(first->id) +
+  const auto lineOf = [&](std::size_t k) {
+    return k < d.fixed_lines.size() ? d.fixed_lines[k] : std::size_t{0};
+  };
+  std::size_t first = d.fixed.size();
+  for (std::size_t k = 0; k < d.fixed.size(); ++k) {
+    const VariableKey& key = d.fixed[k];
+    if (key.role != VariableRole::Pose) continue;
+    if (first == d.fixed.size()) {
+      first = k;
+    } else if (key.id != d.fixed[first].id) {
+      throw DatasetError(d.name, lineOf(k),
+                         "FIX " + std::to_string(key.id) + ": a second fixed pose (FIX " +
+                             std::to_string(d.fixed[first].id) + " at line " +
+                             std::to_string(lineOf(first)) +
                              "); the incremental solver fixes one pose, its first");
     }
   }
-  if (first == nullptr || anchor.id < 0 || first->id == anchor.id) return {};
-  return d.name + ": FIX " + std::to_string(first->id) + ": the incremental solver anchors pose " +
+  if (first == d.fixed.size() || anchor.id < 0 || d.fixed[first].id == anchor.id) return {};
+  return d.name + ":" + std::to_string(lineOf(first)) + ": FIX " +
+         std::to_string(d.fixed[first].id) + ": the incremental solver anchors pose " +
          std::to_string(anchor.id) +
          " (its first) instead, and so does the batch reference; the optimum is the same up to a "
          "rigid motion";
@@ -304,6 +315,18 @@ Vector7d composeSE3(const Vector7d& a, const Vector7d& b) {
 }
 
 }  // namespace
+
+const char* stepKindName(StepKind kind) {
+  switch (kind) {
+    case StepKind::First:
+      return "first";
+    case StepKind::Odometry:
+      return "odometry";
+    case StepKind::LoopClosure:
+      return "loop";
+  }
+  return "?";
+}
 
 template <class Model>
 ModelVariableInput<Model> modelVariableInput(const VariableKey& key, const Eigen::VectorXd& value) {

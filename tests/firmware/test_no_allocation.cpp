@@ -1,11 +1,13 @@
-// Proof that the solver never touches the heap after construction: every heap call of the process
-// is counted while the solver runs, and each counted span must see none. The spans: a whole
-// manhattanOlson3500 run and its final optimize() (a synthetic world of the same size when the
-// dataset is absent); rejected and rolled-back updates of every kind interleaved with valid steps;
-// a run with reordered updates (SolverOptions::reorder_affected_top); a run in a pool small enough
-// to need compactions; and solve(true), optimize() and the estimate's reads. Each span also checks
-// that its path really ran (the statuses, reorderings and compactions it reports), so that a zero
-// cannot come from a path that was never taken. Every input is built before counting starts.
+// Proof that the smoother (Smoother<Model>) never touches the heap after construction: every heap
+// call of the process is counted while it runs, and each counted span must see none. The spans, on
+// the 2D pose graph (PoseSlam2D): a whole manhattanOlson3500 run and its final optimize() (a
+// synthetic world of the same size when the dataset is absent); rejected and rolled-back updates
+// of every kind interleaved with valid steps; a run with reordered updates
+// (SolverOptions::reorder_affected_top); a run in a pool small enough to need compactions; and
+// solve(true), optimize() and the estimate's reads; then short streams of the other models. Each
+// span also checks that its path really ran (the statuses, reorderings and compactions it
+// reports), so that a zero cannot come from a path that was never taken. Every input is built
+// before counting starts.
 //
 // The counting sits at the allocator, not in the code that calls it. This executable defines the C
 // allocator's entry points (malloc, calloc, realloc, reallocarray, free, aligned_alloc,
@@ -43,7 +45,6 @@
 
 #include "host_sim/chi2.h"
 #include "host_sim/dataset_io.h"
-#include "host_sim/incremental_run.h"
 #include "host_sim/steps.h"
 #include "host_sim/synthetic.h"
 #include "lslam/factors/information.h"
@@ -51,7 +52,7 @@
 #include "lslam/models/pose_slam_3d.h"
 #include "lslam/models/slam_2d.h"
 #include "lslam/models/slam_3d.h"
-#include "lslam/solver/pose_graph_solver_2d.h"
+#include "lslam/solver/model_inputs.h"
 #include "lslam/solver/smoother.h"
 
 // glibc's allocator under its own names (exported for exactly this use).
@@ -397,32 +398,54 @@ TEST_CASE("every heap entry point of the process is counted while counting, and 
 
 namespace {
 
-// One online run's inputs, a pose and its factors per step, all built before counting starts.
-struct RunInputs {
-  std::vector<PoseInput> poses;
-  std::vector<std::vector<FactorInput>> factors;
-  std::size_t size() const { return poses.size(); }
+// One update's inputs for a model's smoother, the variables it adds and its factors, built before
+// counting starts.
+template <class Model>
+struct ModelStep {
+  std::vector<ModelVariableInput<Model>> variables;
+  std::vector<lslam::ModelFactorInput<Model>> factors;
 };
 
-// The dataset's online steps, each new pose initialized from `initial` (zero if absent there).
-RunInputs prepareRun(const Dataset2D& d, const Estimate2D& initial) {
+// The 2D pose graph's inputs (Smoother<PoseSlam2D>).
+using PoseVariable = ModelVariableInput<PoseSlam2D>;
+using PoseFactor = lslam::ModelFactorInput<PoseSlam2D>;
+using PoseStep = ModelStep<PoseSlam2D>;
+
+// One call of update() on prepared inputs: touches no memory of its own.
+template <class Model>
+Status update(Smoother<Model>& solver, const ModelStep<Model>& step,
+              UpdateResult* result = nullptr) {
+  return solver.update(step.variables.data(), static_cast<Index>(step.variables.size()),
+                       step.factors.data(), static_cast<Index>(step.factors.size()), result);
+}
+
+PoseFactor between(VariableId from, VariableId to, const SE2& z, const Mat3& information) {
+  return PoseFactor::make<BetweenSE2Factor>(from, to, z, information);
+}
+
+// The dataset's online steps, a pose and its factors each, every new pose initialized from
+// `initial` (zero if absent there).
+std::vector<PoseStep> prepareRun(const Dataset2D& d, const Estimate2D& initial) {
   const std::vector<Step> steps = buildSteps(d, StepOrder::Online);
-  RunInputs in;
-  in.poses.resize(steps.size());
-  in.factors.resize(steps.size());
+  std::vector<PoseStep> in(steps.size());
   for (std::size_t s = 0; s < steps.size(); ++s) {
-    in.poses[s].id = steps[s].new_pose;
+    SE2 x;
     if (auto it = initial.find(steps[s].new_pose); it != initial.end())
-      in.poses[s].initial = SE2(it->second.x, it->second.y, it->second.theta);
-    for (std::size_t e : steps[s].edges) in.factors[s].push_back(toFactorInput(d.edges[e]));
+      x = SE2(it->second.x, it->second.y, it->second.theta);
+    in[s].variables.push_back(PoseVariable::make(steps[s].new_pose, x));
+    for (std::size_t e : steps[s].edges) {
+      const Edge2D& edge = d.edges[e];
+      const Pose2D& z = edge.measurement;
+      in[s].factors.push_back(
+          between(edge.from, edge.to, SE2(z.x, z.y, z.theta), edge.information));
+    }
   }
   return in;
 }
 
-// One call of update() on prepared inputs: touches no memory of its own.
-Status update(PoseGraphSolver2D& solver, const PoseInput& pose,
-              const std::vector<FactorInput>& factors, UpdateResult* result = nullptr) {
-  return solver.update(&pose, 1, factors.data(), static_cast<Index>(factors.size()), result);
+// The id of the pose a step adds.
+VariableId poseOf(const PoseStep& step) {
+  return step.variables.front().id;
 }
 
 // A span that must not have called the heap at all.
@@ -435,6 +458,11 @@ void checkNoHeapCalls(const HeapCalls& calls, const std::string& span) {
   CHECK(calls.news == 0);
   CHECK(calls.deletes == 0);
 }
+
+// Room for manhattanOlson3500 (3,500 poses, 5,453 factors and the anchor) or the synthetic world
+// that stands in for it (6,864 factors), and their fill: ~23,000 live blocks at the end of
+// manhattanOlson3500, ~300,000 at the end of the synthetic world (the host tools' 1 << 20).
+using RunSmoother = StaticSmoother<PoseSlam2D, 4096, 0, 8192, 8192 * 12, 1 << 20, 0>;
 
 }  // namespace
 
@@ -456,14 +484,14 @@ TEST_CASE("no heap allocation from the first step to the last of a whole run") {
   CHECK(reading.news > 0);
   // Every input is prepared before counting starts: the robot holds them in its own buffers.
   // Initial values come from the file (vertices, or zero): the point here is memory, not accuracy.
-  const RunInputs in = prepareRun(d, estimateFromVertices(d));
-  auto solver = std::make_unique<HostSolver2D>();
+  const std::vector<PoseStep> in = prepareRun(d, estimateFromVertices(d));
+  auto solver = std::make_unique<RunSmoother>();
 
   Status worst = Status::Ok;
   Status optimized = Status::Ok;
   const HeapCalls run = countHeapCalls([&] {
     for (std::size_t s = 0; s < in.size(); ++s) {
-      const Status status = update(*solver, in.poses[s], in.factors[s]);
+      const Status status = update(*solver, in[s]);
       if (status != Status::Ok) worst = status;
     }
     optimized = solver->optimize(5, 1e-9);
@@ -514,10 +542,9 @@ TEST_CASE("no heap allocation from the first step to the last of a whole run") {
 namespace {
 
 // Room for a 400-pose synthetic world, its factor far below the pool.
-using SmallSolver = StaticPoseGraphSolver2D<400, 1200, 60000>;
-// A pool small enough that a 300-pose world needs compactions (the size
-// test_pose_graph_solver_2d's compaction test uses).
-using TightSolver = StaticPoseGraphSolver2D<400, 1200, 6000>;
+using SmallSolver = StaticSmoother<PoseSlam2D, 400, 0, 1200, 1200 * 12, 60000, 0>;
+// A pool small enough that a 300-pose world needs compactions.
+using TightSolver = StaticSmoother<PoseSlam2D, 400, 0, 1200, 1200 * 12, 6000, 0>;
 
 SyntheticWorld syntheticWorld(int poses, std::uint32_t seed) {
   SyntheticOptions o;
@@ -535,7 +562,7 @@ Estimate2D groundTruth(const SyntheticWorld& world) {
 
 // Options that reorder the small worlds too, as the solver tests do.
 SolverOptions smallWorldOptions() {
-  SolverOptions options;
+  SolverOptions options = defaultSolverOptions<PoseSlam2D>();
   options.reorder_min_variables = 20;
   return options;
 }
@@ -548,13 +575,13 @@ int countNotOk(const std::vector<Status>& statuses) {
 
 // Feeds every step of a valid run while counting (the status and result arrays are sized before),
 // checks that nothing touched the heap and every step was taken, and returns the steps' results.
-std::vector<UpdateResult> feedAllCounted(PoseGraphSolver2D& solver, const RunInputs& in,
-                                         const char* span) {
+std::vector<UpdateResult> feedAllCounted(Smoother<PoseSlam2D>& solver,
+                                         const std::vector<PoseStep>& in, const char* span) {
   std::vector<Status> statuses(in.size(), Status::Ok);
   std::vector<UpdateResult> results(in.size());
   const HeapCalls calls = countHeapCalls([&] {
     for (std::size_t s = 0; s < in.size(); ++s) {
-      statuses[s] = update(solver, in.poses[s], in.factors[s], &results[s]);
+      statuses[s] = update(solver, in[s], &results[s]);
     }
   });
   checkNoHeapCalls(calls, span);
@@ -568,16 +595,6 @@ int countResults(const std::vector<UpdateResult>& results, Flag flag) {
   int n = 0;
   for (const UpdateResult& r : results) n += flag(r) ? 1 : 0;
   return n;
-}
-
-FactorInput between(VariableId from, VariableId to, const SE2& z, const Mat3& information) {
-  FactorInput f;
-  f.kind = FactorKind::BetweenSE2;
-  f.from = from;
-  f.to = to;
-  f.measurement = z;
-  f.information = information;
-  return f;
 }
 
 // Passes the information check, and a between factor longer than ~0.45 m overflows its Hessian
@@ -631,8 +648,7 @@ constexpr Index kBurst = 2;
 struct RejectedCall {
   std::size_t before_step = 0;  // issued just before this valid step
   Rejection kind = Rejection::NanMeasurement;
-  std::vector<PoseInput> poses;
-  std::vector<FactorInput> factors;
+  PoseStep input;
   Status expected = Status::Ok;
   // A second status the call may return instead (Ok: none). See Rejection::OverflowingError.
   Status also_accepted = Status::Ok;
@@ -652,80 +668,88 @@ std::int64_t farEarlierPose(const std::vector<Pose2D>& truth, std::int64_t to, s
 }
 
 // A loop closure from `from` to `to`, measured as in the truth, its information overflowing.
-FactorInput overflowingLoopClosure(const std::vector<Pose2D>& truth, std::int64_t from,
-                                   std::int64_t to) {
+PoseFactor overflowingLoopClosure(const std::vector<Pose2D>& truth, std::int64_t from,
+                                  std::int64_t to) {
   const Pose2D z =
       relativePose(truth[static_cast<std::size_t>(from)], truth[static_cast<std::size_t>(to)]);
   return between(from, to, SE2(z.x, z.y, z.theta), overflowingInformation());
 }
 
 // A call of the given kind just before valid step s (poses 0 .. s - 1 exist; step s adds pose s).
-RejectedCall rejectedCall(Rejection kind, const RunInputs& in, std::size_t s,
+RejectedCall rejectedCall(Rejection kind, const std::vector<PoseStep>& in, std::size_t s,
                           const std::vector<Pose2D>& truth) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const double inf = std::numeric_limits<double>::infinity();
-  const VariableId n = in.poses[s].id;
+  const VariableId n = poseOf(in[s]);
   REQUIRE(n == static_cast<VariableId>(s));
-  REQUIRE(in.factors[s].front().from == n - 1);  // the step's odometry, 1 m long
+  const PoseFactor& odometry = in[s].factors.front();  // the step's odometry, 1 m long
+  REQUIRE(odometry.ids[0] == n - 1);
+  REQUIRE(odometry.ids[1] == n);
+  const SE2 odometry_z = odometry.measurementAs<BetweenSE2Factor>();
+  const Mat3 odometry_information = odometry.informationAs<BetweenSE2Factor>();
   RejectedCall c;
   c.before_step = s;
   c.kind = kind;
-  c.poses = {in.poses[s]};
-  c.factors = in.factors[s];
+  c.input = in[s];
+  std::vector<PoseVariable>& poses = c.input.variables;
+  std::vector<PoseFactor>& factors = c.input.factors;
   const SE2 one(1.0, 0.0, 0.0);
   switch (kind) {
     case Rejection::NanMeasurement:
-      c.factors.front().measurement = SE2(nan, 0.0, 0.0);
+      factors.front() = between(n - 1, n, SE2(nan, 0.0, 0.0), odometry_information);
       c.expected = Status::NonFiniteInput;
       break;
     case Rejection::InfInitialValue:
-      c.poses.front().initial = SE2(inf, 0.0, 0.0);
+      poses.front() = PoseVariable::make(n, SE2(inf, 0.0, 0.0));
       c.expected = Status::NonFiniteInput;
       break;
-    case Rejection::IndefiniteInformation:
-      c.factors.front().information(2, 2) = -1.0;
+    case Rejection::IndefiniteInformation: {
+      Mat3 indefinite = odometry_information;
+      indefinite(2, 2) = -1.0;
+      factors.front() = between(n - 1, n, odometry_z, indefinite);
       c.expected = Status::InformationNotPositiveDefinite;
       break;
+    }
     case Rejection::UnknownPose:
-      c.factors.push_back(between(n + 47, n, one, Mat3::Identity()));
+      factors.push_back(between(n + 47, n, one, Mat3::Identity()));
       c.expected = Status::UnknownVariable;
       break;
     case Rejection::DuplicatePose:
-      c.poses = {PoseInput{n - 5, SE2()}};
-      c.factors = {between(n - 6, n - 5, one, Mat3::Identity())};
+      poses = {PoseVariable::make(n - 5, SE2())};
+      factors = {between(n - 6, n - 5, one, Mat3::Identity())};
       c.expected = Status::DuplicateVariable;
       break;
     case Rejection::UnconstrainedPose:
-      c.poses.push_back(PoseInput{n + 1, SE2()});
+      poses.push_back(PoseVariable::make(n + 1, SE2()));
       c.expected = Status::UnconstrainedVariable;
       break;
     case Rejection::SelfLoop:
-      c.factors.push_back(between(n, n, one, Mat3::Identity()));
+      factors.push_back(between(n, n, one, Mat3::Identity()));
       c.expected = Status::InvalidArgument;
       break;
     case Rejection::OverflowingOdometry:
-      c.factors.front().information = overflowingInformation();
+      factors.front() = between(n - 1, n, odometry_z, overflowingInformation());
       c.expected = Status::NotPositiveDefinite;
       break;
     case Rejection::OverflowingLoopClosure: {
       const std::int64_t from = farEarlierPose(truth, n - 1, s);
       REQUIRE(from >= 0);
-      c.poses.clear();
-      c.factors = {overflowingLoopClosure(truth, from, n - 1)};
+      poses.clear();
+      factors = {overflowingLoopClosure(truth, from, n - 1)};
       c.expected = Status::NotPositiveDefinite;
       break;
     }
     case Rejection::OverflowingBurst:
       // Between poses before the newest (the newest goes last in any ordering: a burst to it
       // alone would order as the prepared ordering does).
-      c.poses.clear();
-      c.factors.clear();
-      for (std::int64_t to = n - 2; to > 0 && static_cast<Index>(c.factors.size()) <= kBurst;
+      poses.clear();
+      factors.clear();
+      for (std::int64_t to = n - 2; to > 0 && static_cast<Index>(factors.size()) <= kBurst;
            to -= 3) {
         const std::int64_t from = farEarlierPose(truth, to, s);
-        if (from >= 0) c.factors.push_back(overflowingLoopClosure(truth, from, to));
+        if (from >= 0) factors.push_back(overflowingLoopClosure(truth, from, to));
       }
-      REQUIRE(static_cast<Index>(c.factors.size()) > kBurst);
+      REQUIRE(static_cast<Index>(factors.size()) > kBurst);
       c.expected = Status::NotPositiveDefinite;
       break;
     case Rejection::OverflowingError:
@@ -734,13 +758,13 @@ RejectedCall rejectedCall(Rejection kind, const RunInputs& in, std::size_t s,
       // meets a non-positive pivot first (the odometry's whitened rows, ~1e150 times the others,
       // leave the new column nothing but rounding): seed 5 steps 166, 202, 226, 298, 358 and 394.
       // Also a rollback, so accepted here; this test is about memory.
-      c.factors.front() = between(n - 1, n, SE2(1e10, 0.0, 0.0), hugeInformation());
+      factors.front() = between(n - 1, n, SE2(1e10, 0.0, 0.0), hugeInformation());
       c.expected = Status::NumericalOverflow;
       c.also_accepted = Status::NotPositiveDefinite;
       break;
     case Rejection::OverflowingErrorLoopClosure:
-      c.poses.clear();
-      c.factors = {between(n / 2, n - 1, SE2(1e200, 0.0, 0.0), hugeInformation())};
+      poses.clear();
+      factors = {between(n / 2, n - 1, SE2(1e200, 0.0, 0.0), hugeInformation())};
       c.expected = Status::NumericalOverflow;
       break;
   }
@@ -748,11 +772,11 @@ RejectedCall rejectedCall(Rejection kind, const RunInputs& in, std::size_t s,
 }
 
 // Whether two solvers hold the same estimate, bit for bit.
-bool sameEstimate(const PoseGraphSolver2D& a, const PoseGraphSolver2D& b) {
+bool sameEstimate(const Smoother<PoseSlam2D>& a, const Smoother<PoseSlam2D>& b) {
   if (a.poses() != b.poses()) return false;
   for (Index v = 0; v < a.poses(); ++v) {
-    const SE2 p = a.estimateAt(v);
-    const SE2 q = b.estimateAt(v);
+    const SE2 p = a.estimateAt<SE2>(v);
+    const SE2 q = b.estimateAt<SE2>(v);
     if (a.idAt(v) != b.idAt(v) || p.x() != q.x() || p.y() != q.y() || p.theta() != q.theta())
       return false;
   }
@@ -766,7 +790,7 @@ TEST_CASE("no heap allocation in rejected and rolled-back updates between valid 
   // every valid step, its kind cycling: each kind meets many states (an ordering prepared, a
   // layout pending, just reordered). The last call adds a pose past the capacity.
   const SyntheticWorld world = syntheticWorld(SmallSolver::max_poses, 5);
-  const RunInputs in = prepareRun(world.dataset, groundTruth(world));
+  const std::vector<PoseStep> in = prepareRun(world.dataset, groundTruth(world));
   REQUIRE(checkInformation(overflowingInformation()) == Status::Ok);
   REQUIRE(checkInformation(hugeInformation()) == Status::Ok);
   std::vector<RejectedCall> rejected;
@@ -774,9 +798,8 @@ TEST_CASE("no heap allocation in rejected and rolled-back updates between valid 
     rejected.push_back(
         rejectedCall(static_cast<Rejection>(s % kRejections), in, s, world.ground_truth));
   const VariableId past = static_cast<VariableId>(in.size());
-  const PoseInput past_capacity{past, SE2(0.0, 0.0, 0.0)};
-  const std::vector<FactorInput> past_capacity_factors = {
-      between(past - 1, past, SE2(1.0, 0.0, 0.0), Mat3::Identity())};
+  const PoseStep past_capacity{{PoseVariable::make(past, SE2(0.0, 0.0, 0.0))},
+                               {between(past - 1, past, SE2(1.0, 0.0, 0.0), Mat3::Identity())}};
 
   SolverOptions options = smallWorldOptions();
   options.reorder_burst_loop_closures = kBurst;
@@ -793,13 +816,11 @@ TEST_CASE("no heap allocation in rejected and rolled-back updates between valid 
       for (; next < rejected.size() && rejected[next].before_step == s; ++next) {
         const RejectedCall& c = rejected[next];
         layout_pending[next] = solver->factor().layoutPending() ? 1 : 0;
-        rejected_statuses[next] =
-            solver->update(c.poses.data(), static_cast<Index>(c.poses.size()), c.factors.data(),
-                           static_cast<Index>(c.factors.size()), &rejected_results[next]);
+        rejected_statuses[next] = update(*solver, c.input, &rejected_results[next]);
       }
-      statuses[s] = update(*solver, in.poses[s], in.factors[s], &results[s]);
+      statuses[s] = update(*solver, in[s], &results[s]);
     }
-    capacity = update(*solver, past_capacity, past_capacity_factors);
+    capacity = update(*solver, past_capacity);
   });
   checkNoHeapCalls(calls, "rejected updates between valid steps");
 
@@ -849,14 +870,13 @@ TEST_CASE("no heap allocation in rejected and rolled-back updates between valid 
   CHECK(countResults(results, [](const UpdateResult& r) { return r.reordered; }) > 0);
   // Rolled back: the solver ends where one that saw only the valid steps does.
   auto reference = std::make_unique<SmallSolver>(options);
-  for (std::size_t s = 0; s < in.size(); ++s)
-    REQUIRE(update(*reference, in.poses[s], in.factors[s]) == Status::Ok);
+  for (std::size_t s = 0; s < in.size(); ++s) REQUIRE(update(*reference, in[s]) == Status::Ok);
   CHECK(sameEstimate(*solver, *reference));
 }
 
 TEST_CASE("no heap allocation in a run with reordered updates (reorder_affected_top)") {
   const SyntheticWorld world = syntheticWorld(SmallSolver::max_poses, 21);
-  const RunInputs in = prepareRun(world.dataset, groundTruth(world));
+  const std::vector<PoseStep> in = prepareRun(world.dataset, groundTruth(world));
   SolverOptions options = smallWorldOptions();
   options.reorder_affected_top = true;
   options.reorder_top_min_columns = 4;
@@ -870,7 +890,7 @@ TEST_CASE("no heap allocation in a run with reordered updates (reorder_affected_
 
 TEST_CASE("no heap allocation in a run whose pool needs compactions") {
   const SyntheticWorld world = syntheticWorld(300, 60);
-  const RunInputs in = prepareRun(world.dataset, groundTruth(world));
+  const std::vector<PoseStep> in = prepareRun(world.dataset, groundTruth(world));
   auto solver = std::make_unique<TightSolver>(smallWorldOptions());
   const std::vector<UpdateResult> results = feedAllCounted(*solver, in, "compacting run");
   const int compactions = countResults(results, [](const UpdateResult& r) { return r.compacted; });
@@ -883,7 +903,7 @@ TEST_CASE("no heap allocation in solve(), optimize() and the estimate's reads") 
   // No solve after update: the steps take partial solves and full ones on demand, then one full
   // solve, optimize() from the dead-reckoning start, and every read of the estimate.
   const SyntheticWorld world = syntheticWorld(300, 33);
-  const RunInputs in = prepareRun(world.dataset, estimateFromVertices(world.dataset));
+  const std::vector<PoseStep> in = prepareRun(world.dataset, estimateFromVertices(world.dataset));
   SolverOptions options = smallWorldOptions();
   options.solve_after_update = false;
   auto solver = std::make_unique<SmallSolver>(options);
@@ -904,7 +924,7 @@ TEST_CASE("no heap allocation in solve(), optimize() and the estimate's reads") 
   double delta_sum = 0.0;
   const HeapCalls calls = countHeapCalls([&] {
     for (std::size_t s = 0; s < n; ++s) {
-      statuses[s] = update(*solver, in.poses[s], in.factors[s]);
+      statuses[s] = update(*solver, in[s]);
       poses_at_solve[s] = solver->poses();
       if (s % 10 == 9)
         solver->solve(true, &solves[s]);
@@ -916,13 +936,13 @@ TEST_CASE("no heap allocation in solve(), optimize() and the estimate's reads") 
     optimize_status = solver->optimize(10, 1e-9, &optimized);
     chi2_after = solver->chi2();
     for (std::size_t i = 0; i < n; ++i) {
-      estimate_statuses[i] = solver->estimate(in.poses[i].id, &estimates[i]);
-      estimates_at[i] = solver->estimateAt(static_cast<Index>(i));
+      estimate_statuses[i] = solver->estimate(poseOf(in[i]), &estimates[i]);
+      estimates_at[i] = solver->estimateAt<SE2>(static_cast<Index>(i));
       delta_sum += solver->deltaAt(static_cast<Index>(i)).cwiseAbs().sum();
     }
     SE2 scratch;
     unknown = solver->estimate(static_cast<VariableId>(n) + 100, &scratch);
-    no_output = solver->estimate(0, nullptr);
+    no_output = solver->estimate<SE2>(0, nullptr);
   });
   checkNoHeapCalls(calls, "solve, optimize and estimate reads");
 
@@ -954,7 +974,7 @@ TEST_CASE("no heap allocation in solve(), optimize() and the estimate's reads") 
   for (std::size_t i = 0; i < n; ++i) {
     CAPTURE(i);
     CHECK(estimate_statuses[i] == Status::Ok);
-    CHECK(solver->idAt(static_cast<Index>(i)) == in.poses[i].id);
+    CHECK(solver->idAt(static_cast<Index>(i)) == poseOf(in[i]));
     CHECK(estimates[i].x() == estimates_at[i].x());
     CHECK(estimates[i].y() == estimates_at[i].y());
     CHECK(estimates[i].theta() == estimates_at[i].theta());
@@ -966,11 +986,6 @@ namespace {
 // Short streams of the model smoother (Smoother<Model>, StaticSmoother): a 3D pose graph with
 // loop closures and point observations, and a 2D walk among landmarks seen by position and by
 // range-bearing. Every input is built here, before counting.
-template <class Model>
-struct ModelStep {
-  std::vector<ModelVariableInput<Model>> variables;
-  std::vector<lslam::ModelFactorInput<Model>> factors;
-};
 
 // Slam3D; PoseSlam3D takes the same poses and pose factors without the landmarks.
 template <class Model = Slam3D>
@@ -1075,13 +1090,8 @@ void runModelStreamCounted(Solver& solver, const std::vector<ModelStep<Model>>& 
   const HeapCalls calls = countHeapCalls([&] {
     for (std::size_t k = 0; k < steps.size(); ++k) {
       const ModelStep<Model>& b = bad[k];
-      if (!b.factors.empty()) {
-        rejected[k] = solver.update(b.variables.data(), static_cast<Index>(b.variables.size()),
-                                    b.factors.data(), static_cast<Index>(b.factors.size()));
-      }
-      const ModelStep<Model>& st = steps[k];
-      statuses[k] = solver.update(st.variables.data(), static_cast<Index>(st.variables.size()),
-                                  st.factors.data(), static_cast<Index>(st.factors.size()));
+      if (!b.factors.empty()) rejected[k] = update(solver, b);
+      statuses[k] = update(solver, steps[k]);
     }
     solver.solve(true);
     optimize_status = solver.optimize(10, 1e-9, &optimized);

@@ -97,8 +97,7 @@ TEST_CASE("run: a valid line sets every option, DATASET anywhere among them") {
                      "--reorder-relinearized", "0.25", "--reorder-refresh", "4",
                      "--relinearize-full-cost", "5", "--relinearize-skip", "6",
                      "--reorder-path", "7", "--reorder-burst", "8", "--prepare-min-products", "9",
-                     "--reorder-top", "--no-row-updates", "--no-linearization-cache",
-                     "--order-in-one-update"};
+                     "--reorder-top", "--no-row-updates", "--order-in-one-update"};
   // clang-format on
   REQUIRE(parseRunArgs(argv, args) == std::nullopt);
   CHECK(args.dataset == "data.g2o");
@@ -124,7 +123,6 @@ TEST_CASE("run: a valid line sets every option, DATASET anywhere among them") {
   CHECK(so.prepare_ordering_min_products == 9);
   CHECK(so.reorder_affected_top);
   CHECK_FALSE(so.row_updates);
-  CHECK_FALSE(so.cache_linearizations);
   CHECK_FALSE(so.prepare_ordering_ahead);
 
   RunArgs defaults;

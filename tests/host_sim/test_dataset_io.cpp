@@ -3,8 +3,7 @@
 // problem; the three formats read one hand-written graph to the same measurements and information
 // (the iSAM square-root information computed here with Eigen, independently of the reader); format
 // detection; writeG2o -> parseDataset2D is bit-exact; random single-token corruptions never crash.
-// Also the checks of the incremental run on FIX and rejected steps (host_sim/incremental_run.h)
-// and the command-line helpers of lslam-sim (host_sim/cli_args.h).
+// Also the command-line helpers of lslam-sim (host_sim/cli_args.h).
 #include <doctest/doctest.h>
 
 #include <Eigen/Dense>
@@ -22,16 +21,13 @@
 
 #include "host_sim/cli_args.h"
 #include "host_sim/dataset_io.h"
-#include "host_sim/incremental_run.h"
 
 using lslam::sim::Dataset2D;
 using lslam::sim::DatasetError;
 using lslam::sim::DatasetFormat;
 using lslam::sim::Edge2D;
 using lslam::sim::FixedPose;
-using lslam::sim::IncrementalOptions;
 using lslam::sim::parseDataset2D;
-using lslam::sim::StepOrder;
 using lslam::sim::Vertex2D;
 using lslam::sim::writeG2o;
 using namespace std::string_literals;
@@ -938,58 +934,6 @@ TEST_CASE("readers: random single-token corruptions parse or throw DatasetError 
     CHECK(parsed > 100);  // the corruptions exercise both outcomes
     CHECK(rejected > 1000);
   }
-}
-
-// ---- the incremental run: FIX and rejected steps ----
-
-TEST_CASE("runIncremental: a FIX of another pose than the anchor is noted, of two poses an error") {
-  const std::string graph =
-      "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nVERTEX_SE2 2 2 0 0\n"
-      "EDGE_SE2 1 2 1 0 0 1 0 0 1 0 1\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n";
-  // Online order anchors the smallest id (0); file order the first edge's smaller end (1).
-  IncrementalOptions file_order;
-  file_order.order = StepOrder::File;
-  const auto runError = [](const Dataset2D& d, const IncrementalOptions& o) -> std::string {
-    try {
-      const lslam::sim::IncrementalRun run = lslam::sim::runIncremental(d, o);
-      return "ok anchor " + std::to_string(run.anchor) +
-             (run.gauge_note.empty() ? "" : ", note " + run.gauge_note);
-    } catch (const DatasetError& e) {
-      return e.what();
-    }
-  };
-  CHECK(runError(parse(graph, "a.g2o"), IncrementalOptions{}) == "ok anchor 0");
-  CHECK(runError(parse(graph, "a.g2o"), file_order) == "ok anchor 1");
-  CHECK(runError(parse(graph + "FIX 0\n", "a.g2o"), IncrementalOptions{}) == "ok anchor 0");
-  CHECK(runError(parse(graph + "FIX 1\n", "a.g2o"), file_order) == "ok anchor 1");
-  CHECK(runError(parse(graph + "FIX 0 0\nFIX 0\n", "a.g2o"), IncrementalOptions{}) ==
-        "ok anchor 0");
-  CHECK(runError(parse(graph + "FIX 2\n", "a.g2o"), IncrementalOptions{}) ==
-        "ok anchor 0, note a.g2o:6: FIX 2: the incremental solver anchors pose 0 (its first) "
-        "instead, and so does the batch reference; the optimum is the same up to a rigid motion");
-  CHECK(runError(parse("FIX 0\n" + graph, "a.g2o"), file_order) ==
-        "ok anchor 1, note a.g2o:1: FIX 0: the incremental solver anchors pose 1 (its first) "
-        "instead, and so does the batch reference; the optimum is the same up to a rigid motion");
-  CHECK(runError(parse(graph + "FIX 0\nFIX 0 1\n", "a.g2o"), IncrementalOptions{}) ==
-        "a.g2o:7: FIX 1: a second fixed pose (FIX 0 at line 6); the incremental solver fixes one "
-        "pose, its first");
-}
-
-TEST_CASE("runIncremental: a rejected step names the file and its edges' lines") {
-  // Finite, positive definite on paper, but 1e308 overflows the factorization.
-  const std::string text =
-      "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\n# c\nEDGE_SE2 0 1 1 0 0 1e308 0 0 1e308 0 1e308\n";
-  const Dataset2D d = parse(text, "big.g2o");
-  bool threw = false;
-  try {
-    (void)lslam::sim::runIncremental(d, IncrementalOptions{});
-  } catch (const DatasetError& e) {
-    threw = true;
-    CHECK(e.line() == 4);
-    CHECK(e.reason().find("step 1 (pose 1, edge at line 4) rejected: ") == 0);
-    CHECK(e.reason().find("positive definite") != std::string::npos);
-  }
-  CHECK(threw);
 }
 
 // ---- lslam-sim's option values and JSON strings ----

@@ -11,12 +11,14 @@
 #include <cstdint>
 #include <limits>
 #include <random>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "host_sim/model_batch_solver.h"
 #include "host_sim/model_chi2.h"
+#include "host_sim/model_dataset_io.h"
 #include "host_sim/model_run.h"
 #include "model_test_support.h"
 
@@ -278,6 +280,57 @@ TEST_CASE("a step the solver rejects is reported at its first factor's line") {
   CHECK_THROWS_AS(
       (void)sim::runModelIncremental(makeRun(1, 2, ObjectiveConvention::G2o, 1e-3), file_order),
       std::invalid_argument);
+}
+
+TEST_CASE("a FIX of another pose than the anchor is noted, of two poses an error, at its line") {
+  const std::string graph =
+      "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nVERTEX_SE2 2 2 0 0\n"
+      "EDGE_SE2 1 2 1 0 0 1 0 0 1 0 1\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n";
+  // Online order anchors the smallest id (0); file order the first edge's smaller end (1).
+  sim::IncrementalOptions file_order;
+  file_order.order = sim::StepOrder::File;
+  const auto runError = [](const std::string& text, const sim::IncrementalOptions& o) {
+    std::istringstream in(text);
+    try {
+      const sim::ModelRun run = sim::runModelIncremental(sim::parseModelDataset(in, "a.g2o"), o);
+      return "ok anchor " + std::to_string(run.anchor.id) +
+             (run.gauge_note.empty() ? "" : ", note " + run.gauge_note);
+    } catch (const sim::DatasetError& e) {
+      return std::string(e.what());
+    }
+  };
+  const sim::IncrementalOptions online;
+  CHECK(runError(graph, online) == "ok anchor 0");
+  CHECK(runError(graph, file_order) == "ok anchor 1");
+  CHECK(runError(graph + "FIX 0\n", online) == "ok anchor 0");
+  CHECK(runError(graph + "FIX 1\n", file_order) == "ok anchor 1");
+  CHECK(runError(graph + "FIX 0 0\nFIX 0\n", online) == "ok anchor 0");
+  CHECK(runError(graph + "FIX 2\n", online) ==
+        "ok anchor 0, note a.g2o:6: FIX 2: the incremental solver anchors pose 0 (its first) "
+        "instead, and so does the batch reference; the optimum is the same up to a rigid motion");
+  CHECK(runError("FIX 0\n" + graph, file_order) ==
+        "ok anchor 1, note a.g2o:1: FIX 0: the incremental solver anchors pose 1 (its first) "
+        "instead, and so does the batch reference; the optimum is the same up to a rigid motion");
+  CHECK(runError(graph + "FIX 0\nFIX 0 1\n", online) ==
+        "a.g2o:7: FIX 1: a second fixed pose (FIX 0 at line 6); the incremental solver fixes one "
+        "pose, its first");
+}
+
+TEST_CASE("a step that overflows the factorization is reported at its factor's line") {
+  // Finite, positive definite on paper, but 1e308 overflows the factorization.
+  std::istringstream in(
+      "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\n# c\nEDGE_SE2 0 1 1 0 0 1e308 0 0 1e308 0 1e308\n");
+  const ModelDataset d = sim::parseModelDataset(in, "big.g2o");
+  bool threw = false;
+  try {
+    (void)sim::runModelIncremental(d, sim::IncrementalOptions{});
+  } catch (const sim::DatasetError& e) {
+    threw = true;
+    CHECK(e.line() == 4);
+    CHECK(e.reason().find("step 1 (pose 1, factor at line 4) rejected: ") == 0);
+    CHECK(e.reason().find("positive definite") != std::string::npos);
+  }
+  CHECK(threw);
 }
 
 TEST_CASE("isPoseGraph2D: SE2 poses with SE2 factors only") {

@@ -3,7 +3,6 @@
 #include <algorithm>
 
 #include "lslam/assert.h"
-#include "lslam/factors/pose_graph_2d.h"
 #include "lslam/graph/factor_graph.h"
 #include "lslam/models/pose_slam_2d.h"
 #include "lslam/models/pose_slam_3d.h"
@@ -384,7 +383,6 @@ void FactorizationDriver<Graph, Factor>::markAffectedColumns(const Index* positi
 }
 
 // The pose graph, and the models of the generic solver.
-template class FactorizationDriver<PoseGraph2D, IncrementalCholesky<3>>;
 template class FactorizationDriver<FactorGraph<Slam2D>, IncrementalCholesky<3, 2>>;
 template class FactorizationDriver<FactorGraph<Slam3D>, IncrementalCholesky<6, 3>>;
 template class FactorizationDriver<FactorGraph<PoseSlam2D>, IncrementalCholesky<3>>;

@@ -3,7 +3,6 @@
 #include <limits>
 
 #include "lslam/assert.h"
-#include "lslam/factors/pose_graph_2d.h"
 #include "lslam/graph/factor_graph.h"
 #include "lslam/linear/elimination_tree.h"
 #include "lslam/models/pose_slam_2d.h"
@@ -135,7 +134,6 @@ bool OrderingPolicy<Graph, Factor>::computeFreshOrdering(bool* prepared_overwrit
 }
 
 // The pose graph, and the models of the generic solver.
-template class OrderingPolicy<PoseGraph2D, IncrementalCholesky<3>>;
 template class OrderingPolicy<FactorGraph<Slam2D>, IncrementalCholesky<3, 2>>;
 template class OrderingPolicy<FactorGraph<Slam3D>, IncrementalCholesky<6, 3>>;
 template class OrderingPolicy<FactorGraph<PoseSlam2D>, IncrementalCholesky<3>>;

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <limits>
 
-#include "lslam/factors/pose_graph_2d.h"
 #include "lslam/graph/factor_graph.h"
 #include "lslam/models/pose_slam_2d.h"
 #include "lslam/models/pose_slam_3d.h"
@@ -207,7 +206,6 @@ void RelinearizationPolicy<Graph, Factor>::noteCandidates(const Index* visited, 
 }
 
 // The pose graph, and the models of the generic solver.
-template class RelinearizationPolicy<PoseGraph2D, IncrementalCholesky<3>>;
 template class RelinearizationPolicy<FactorGraph<Slam2D>, IncrementalCholesky<3, 2>>;
 template class RelinearizationPolicy<FactorGraph<Slam3D>, IncrementalCholesky<6, 3>>;
 template class RelinearizationPolicy<FactorGraph<PoseSlam2D>, IncrementalCholesky<3>>;

@@ -1,8 +1,7 @@
 #pragma once
-// The steps of an update shared by the façades (PoseGraphSolver2D, Smoother<Model>): the plan of
-// what an update does besides adding its inputs, and the factorization through the driver with the
-// restart of the variables' solution. Templates over the façade's parts, so that each façade keeps
-// its own types and the two cannot drift apart.
+// The steps of an update of Smoother<Model>: the plan of what an update does besides adding its
+// inputs, and the factorization through the driver with the restart of the variables' solution.
+// Templates over the smoother's parts.
 #include "lslam/solver/factorization_driver.h"
 #include "lslam/solver/ordering_policy.h"
 #include "lslam/solver/relinearization_policy.h"

@@ -86,10 +86,11 @@ struct ModelDataset {
   std::string name;
   DatasetFormat format = DatasetFormat::G2o;
   ObjectiveConvention convention = ObjectiveConvention::G2o;
-  int dimension = 2;                  // 2 or 3
-  std::vector<ModelVertex> vertices;  // file order; empty for edge-only files (iSAM)
-  std::vector<ModelFactor> factors;   // file order
-  std::vector<VariableKey> fixed;     // FIX lines, file order
+  int dimension = 2;                     // 2 or 3
+  std::vector<ModelVertex> vertices;     // file order; empty for edge-only files (iSAM)
+  std::vector<ModelFactor> factors;      // file order
+  std::vector<VariableKey> fixed;        // FIX lines, file order
+  std::vector<std::size_t> fixed_lines;  // the line of each `fixed` key (may be empty: not known)
 };
 
 // |q| may differ from 1 by this much in a file (printed with 6-9 digits) before it is an error.

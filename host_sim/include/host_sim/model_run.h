@@ -13,12 +13,31 @@
 #include <string>
 #include <vector>
 
-#include "host_sim/incremental_run.h"
 #include "host_sim/model_chi2.h"
 #include "host_sim/model_dataset.h"
+#include "host_sim/model_steps.h"
 #include "lslam/solver/model_inputs.h"
+#include "lslam/solver/solver_options.h"
+#include "lslam/solver/update_result.h"
 
 namespace lslam::sim {
+
+enum class StepKind { First, Odometry, LoopClosure };
+const char* stepKindName(StepKind kind);
+
+struct StepRecord {
+  std::size_t index = 0;
+  StepKind kind = StepKind::Odometry;
+  double microseconds = 0.0;        // the whole step: update and back-substitution
+  double solve_microseconds = 0.0;  // of which the back-substitution
+  UpdateResult result;
+};
+
+struct IncrementalOptions {
+  StepOrder order = StepOrder::Online;
+  int solve_every = 1;  // back-substitute after every N-th step (and after the last)
+  SolverOptions solver;
+};
 
 struct ModelRun {
   ModelEstimate initial;   // each variable's value when it was introduced (the batch starts here)
@@ -35,9 +54,9 @@ struct ModelRun {
 };
 
 // Runs `d` in options.order (file order: pose graphs only, else std::invalid_argument). The solver
-// anchors the first step's pose; FIX keys as in runIncremental (one other fixed pose is noted in
-// gauge_note, a second fixed pose throws DatasetError at its line; the file's FIX lines carry no
-// line here, so the error names line 0). If the solver rejects a step, throws DatasetError at the
+// anchors the first step's pose (step 0's) with a prior and has no FIX: a FIX of one other pose
+// only moves the gauge and is noted in gauge_note, a second fixed pose throws DatasetError at its
+// line. If the solver rejects a step, throws DatasetError at the
 // line of the step's first factor, naming the step, its pose, the lines of its factors and the
 // solver's status. A dataset beyond the host solver's capacity is such a rejection
 // (Status::CapacityExceeded). Whatever buildModelSteps throws.
@@ -66,8 +85,8 @@ SolverOptions defaultModelOptions(const ModelDataset& d);
 // Whether a factor or a vertex of `d` names a landmark.
 bool hasLandmarks(const ModelDataset& d);
 
-// Whether `d` is a 2D pose graph (only SE2 poses and BetweenSE2/PriorSE2 factors): the datasets
-// PoseGraphSolver2D runs (incremental_run.h).
+// Whether `d` is a 2D pose graph (only SE2 poses and BetweenSE2/PriorSE2 factors): the PoseSlam2D
+// model.
 bool isPoseGraph2D(const ModelDataset& d);
 
 }  // namespace lslam::sim

@@ -1,11 +1,11 @@
 #pragma once
 // The factor graph of any model (slam_2d.h, slam_3d.h) as the solver holds it: each variable's
 // linearization point, each factor's measurement and information, and per variable the list of
-// factors that touch it. The generic counterpart of PoseGraph2D, with its semantics: it is the
-// InformationSource of IncrementalCholesky<ModelBlockSizes<Model>...>, a column of Lambda is
-// linearized from the factors on demand, and every change belongs to an update that is committed
-// or rolled back as a whole, a rollback restoring every stored value bit for bit (variables and
-// factors are appended; relinearizations and a disabled prior are staged).
+// factors that touch it. It is the InformationSource of
+// IncrementalCholesky<ModelBlockSizes<Model>...>, a column of Lambda is linearized from the factors
+// on demand, and every change belongs to an update that is committed or rolled back as a whole, a
+// rollback restoring every stored value bit for bit (variables and factors are appended;
+// relinearizations and a disabled prior are staged).
 //
 // Variable kinds: the model's first variable kind is the pose, the second (if any) the landmark;
 // the storage gives each its own capacity. Every variable has its kind (one byte, in an array the
@@ -15,14 +15,15 @@
 //
 // Factors: a kind (one byte), one or two variables and an offset into a pool of doubles holding
 // the measurement (StoredValue form) followed by the information matrix, kErrorDim^2 doubles,
-// column-major, stored as its symmetric part (symmetrize, as PoseGraph2D does). Each factor takes
+// column-major, stored as its symmetric part (symmetrize). Each factor takes
 // exactly its kind's count (kFactorValues<F>), no slot is padded to the largest kind.
 //
-// Left out of PoseGraph2D: the linearization cache (every factor is linearized afresh when a
-// column asks). whitenedRows gives the rows of the row update, for every model.
+// No linearization cache: every factor is linearized afresh when a column asks (a cache would
+// spare a reordering most linearizations, at a Jacobian pair per factor of RAM). whitenedRows gives
+// the rows of the row update.
 //
-// Every definition that is not a member template is in factor_graph.cpp, compiled for Slam2D and
-// Slam3D.
+// Every definition that is not a member template is in factor_graph.cpp, compiled for every
+// model.
 #include <cstdint>
 #include <type_traits>
 

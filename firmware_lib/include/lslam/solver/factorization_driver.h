@@ -20,7 +20,7 @@
 
 namespace lslam {
 
-// What an update does besides adding its poses and factors (PoseGraphSolver2D::planUpdate).
+// What an update does besides adding its variables and factors (planUpdate, update_steps.h).
 struct UpdatePlan {
   bool reorder_now = false;       // a full refactorization in a fresh (or the prepared) ordering
   bool prepare_ordering = false;  // COLAMD at the end of the update, for the next

@@ -1,5 +1,5 @@
 #pragma once
-// The gauge rules (see "The gauge" in pose_graph_solver_2d.h): which update gets the anchor, the
+// The gauge rules (see "The gauge" in smoother.h): which update gets the anchor, the
 // solver's prior on the first pose, and which takes it out again (the caller's first prior).
 #include "lslam/linear/index.h"
 

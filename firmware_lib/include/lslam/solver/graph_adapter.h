@@ -1,10 +1,9 @@
 #pragma once
-// How the solver's units see the graph they work on: PoseGraph2D (one kind of variable, SE2) or
-// FactorGraph<Model> (the model's kinds). Both give the whitened rows of the row update.
-// The units are templates over the graph and the factor, compiled once per pair in their sources.
+// How the solver's units see the graph they work on, FactorGraph<Model> (the model's kinds). The
+// units are templates over the graph and the factor, compiled once per model in their sources;
+// the adapter is the one place that names what they read of the graph.
 #include <type_traits>
 
-#include "lslam/factors/pose_graph_2d.h"
 #include "lslam/graph/factor_graph.h"
 #include "lslam/linear/incremental_cholesky.h"
 #include "lslam/linear/index.h"
@@ -16,17 +15,6 @@ namespace lslam {
 // its solution delta.
 template <class Graph>
 struct GraphAdapter;
-
-template <>
-struct GraphAdapter<PoseGraph2D> {
-  static constexpr int kKinds = 1;
-  static int kindOf(const PoseGraph2D& /*graph*/, Index /*v*/) { return 0; }
-  static int dofOfKind(int /*kind*/) { return 3; }
-  static int errorRows(const PoseGraph2D& /*graph*/, Index /*f*/) { return 3; }
-  static void relinearizeBy(PoseGraph2D& graph, Index v, const Vec3& delta) {
-    graph.relinearize(v, graph.linearizationPoint(v).retract(delta));
-  }
-};
 
 template <class Model>
 struct GraphAdapter<FactorGraph<Model>> {

@@ -1,9 +1,8 @@
 #pragma once
-// The checks a model's update passes before anything changes (the generic counterpart of
-// UpdateValidator): counts and capacities per kind, each input through its kind
-// (ModelVariableInput::check, ModelFactorInput::check), ids (duplicates, unknown ids, per id
-// space), and every added variable constrained. A rejected update leaves the id maps as they were;
-// an accepted one has the ids it adds in them.
+// The checks a model's update passes before anything changes: counts and capacities per kind, each
+// input through its kind (ModelVariableInput::check, ModelFactorInput::check), ids (duplicates,
+// unknown ids, per id space), and every added variable constrained. A rejected update leaves the id
+// maps as they were; an accepted one has the ids it adds in them.
 //
 // Constrained. An added variable must be held by this update's factors: by a prior, or by a
 // factor whose other variables are held and whose rows fix it alone. A factor fixes a variable

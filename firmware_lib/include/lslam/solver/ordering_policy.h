@@ -3,9 +3,8 @@
 // the two order buffers (a reordering is staged in the inactive one), the triggers of a
 // reordering and their work budget, and the COLAMD ordering prepared one update ahead.
 //
-// A template over the graph and the factor (PoseGraph2D with IncrementalCholesky<3>, FactorGraph
-// of Slam2D or Slam3D with the model's block sizes), defined and instantiated for those pairs in
-// ordering_policy.cpp.
+// A template over the graph and the factor (the FactorGraph of a model with the factor of the
+// model's block sizes), defined and instantiated for every model in ordering_policy.cpp.
 #include <cstdint>
 
 #include "lslam/linear/colamd_ordering.h"

@@ -1,14 +1,16 @@
 #pragma once
-// The incremental solver of any model (models/slam_2d.h, slam_3d.h): the generic counterpart of
-// PoseGraphSolver2D, with its update, gauge and rejection semantics (see pose_graph_solver_2d.h),
-// over a FactorGraph<Model> and the factor of the model's mixed block sizes.
+// The incremental solver of any model (models/pose_slam_2d.h, slam_2d.h, slam_3d.h,
+// pose_slam_3d.h): the policy on top of a FactorGraph<Model>, the incremental Cholesky factor of
+// the model's block sizes and the COLAMD ordering.
 //
-// Two phases: StaticSmoother holds every array (capacities per kind as template parameters);
-// Smoother<Model> works on pointers and counts and never allocates. It is compiled for Slam2D and
-// Slam3D and PoseSlam3D in smoother.cpp.
+// Two phases, as in OSQP: StaticSmoother holds every array (capacities per kind as template
+// parameters); Smoother<Model> works on pointers and counts and never allocates. It is compiled
+// once per model in smoother.cpp, for every capacity.
 //
-// A call that returns anything but Status::Ok has changed no value (the inputs are validated
-// before any change, the factorization stages until it has succeeded).
+// A call that returns anything but Status::Ok has changed no value: the inputs are validated
+// before any change, and the factorization writes to staging memory until it has succeeded (a
+// rejected update may have done the solve layout a full refactorization left pending, a storage
+// order).
 //
 // Variables and ids. A ModelVariableInput names its kind and an id in that kind's id space (pose 4
 // and landmark 4 are two variables); a ModelFactorInput names its kind and its variables' ids in
@@ -16,11 +18,22 @@
 // (ModelUpdateValidator): a landmark by an observation or a prior, a pose by a between factor to a
 // held pose or a prior (not by landmarks alone).
 //
-// The gauge, as in PoseGraphSolver2D: when the first update brings no prior on a pose of the
-// caller's, the solver anchors the first pose input with Model::PosePrior (information
-// Identity * SolverOptions::anchor_information, at its initial value); the update that brings the
-// caller's first pose prior takes the anchor out (disablePrior) and refactorizes every column.
-// chi2() sums the caller's factors only.
+// The gauge. Between factors fix the poses only up to a rigid motion; priors fix it. The caller's
+// priors (absolute measurements: GPS, a known start) are part of the problem; when the caller has
+// given none, the solver fixes the gauge itself with the anchor, a Model::PosePrior of information
+// Identity * SolverOptions::anchor_information holding the first pose input where it was given:
+//  - a first update with a pose prior of the caller's gets no anchor (each of its poses must then
+//    be tied to a prior through its factors);
+//  - a first update without one anchors its first pose, and the anchor stays exactly as long as
+//    no caller prior has come: the update that brings the first one takes the anchor out of the
+//    problem (disablePrior: it keeps its factor slot with zero information) and, since a factor
+//    cannot be taken out of L in place, reorders and refactorizes every column, once. That update
+//    must tie the map to its priors (a prior on a mapped pose, or between factors from an added
+//    pose with a prior to the map); otherwise it is UnconstrainedVariable, as the map would float
+//    free;
+//  - chi2() sums the caller's factors only, never the anchor.
+// The optimum is then always that of the caller's factors alone: with priors, theirs; without,
+// theirs in the gauge of the first pose (which the anchor, at zero error there, does not move).
 //
 // Relinearization thresholds per kind (SolverOptions::relinearize_threshold_of_kind, max-norm of a
 // variable's delta). The defaults {0, 0} take relinearize_threshold (0.01) for both kinds:

@@ -101,15 +101,10 @@ struct SolverOptions {
   // reordering is too dear for one update depends on the platform's step budget (a block product
   // is ~5 ns on the host, ~100 instructions on the Cortex-M7), so the default splits them all.
   std::int64_t prepare_ordering_min_products = 0;
-  // Full refactorizations take each factor's linearization from the graph's cache when neither of
-  // its points moved since it was computed (needs a solver built with the cache): a reordering
-  // then linearizes only the factors of the variables relinearized since the last one. Same bits
-  // either way.
-  bool cache_linearizations = true;
   // Never reorder graphs smaller than this (chronological order is optimal for a chain).
   Index reorder_min_variables = 50;
   // Information of the prior that anchors the very first pose when the caller gives none; it
-  // leaves the problem with the caller's first prior (see "The gauge" in pose_graph_solver_2d.h).
+  // leaves the problem with the caller's first prior (see "The gauge" in smoother.h).
   double anchor_information = 1e6;
 };
 

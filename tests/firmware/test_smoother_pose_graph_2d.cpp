@@ -1,5 +1,7 @@
-// The incremental solver against the independent batch solver (host_sim) on random synthetic
-// graphs, and its handling of bad input: every rejected call must leave it exactly as it was.
+// StaticSmoother<PoseSlam2D> (the 2D pose graph through the generic smoother) against the
+// independent batch solver (host_sim) on random synthetic graphs, its update policies (ordering,
+// relinearization, compaction, bursts, the gauge), and its handling of bad input: every rejected
+// call must leave it exactly as it was.
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -9,16 +11,19 @@
 #include <map>
 #include <memory>
 #include <numeric>
+#include <optional>
 #include <random>
 #include <vector>
 
 #include "host_sim/batch_solver.h"
 #include "host_sim/chi2.h"
-#include "host_sim/incremental_run.h"
+#include "host_sim/dataset.h"
 #include "host_sim/steps.h"
 #include "host_sim/synthetic.h"
 #include "lslam/factors/information.h"
-#include "lslam/solver/pose_graph_solver_2d.h"
+#include "lslam/models/pose_slam_2d.h"
+#include "lslam/solver/model_inputs.h"
+#include "lslam/solver/smoother.h"
 #include "solve_order.h"
 
 using namespace lslam;
@@ -26,7 +31,44 @@ using namespace lslam::sim;
 
 namespace {
 
-using SmallSolver = StaticPoseGraphSolver2D<400, 1200, 60000>;
+using Solver = Smoother<PoseSlam2D>;
+using Var = ModelVariableInput<PoseSlam2D>;
+using Fac = ModelFactorInput<PoseSlam2D>;
+
+// A smoother of P poses, F factors (12 doubles each: an SE2 measurement and a 3x3 information)
+// and B factor blocks of 3x3 (a one-size model: no block value pool).
+template <Index P, Index F, Index B>
+using PoseSmoother = StaticSmoother<PoseSlam2D, P, 0, F, F * 12, B, 0>;
+
+using SmallSolver = PoseSmoother<400, 1200, 60000>;
+
+SE2 toSE2(const Pose2D& p) {
+  return SE2(p.x, p.y, p.theta);
+}
+
+Pose2D toPose2D(const SE2& p) {
+  return Pose2D{p.x(), p.y(), p.theta()};
+}
+
+// A between factor of pose `to` seen from pose `from`.
+Fac betweenFactor(VariableId from, VariableId to, const SE2& z, const Mat3& information) {
+  return Fac::make<BetweenSE2Factor>(from, to, z, information);
+}
+
+Fac priorFactor(VariableId id, const SE2& z, const Mat3& information) {
+  return Fac::make<PriorSE2Factor>(id, z, information);
+}
+
+// The smoother's input for one edge.
+Fac toFactor(const Edge2D& edge) {
+  return betweenFactor(edge.from, edge.to, toSE2(edge.measurement), edge.information);
+}
+
+// The factor with its information replaced.
+Fac withInformation(Fac f, const Mat3& information) {
+  Eigen::Map<Mat3>(f.information) = information;
+  return f;
+}
 
 // A random synthetic Manhattan world of `poses` poses.
 Dataset2D syntheticWorld(int poses, std::uint32_t seed) {
@@ -45,11 +87,10 @@ Dataset2D prefix(const Dataset2D& d, const std::vector<Step>& steps, std::size_t
   return out;
 }
 
-Estimate2D estimateOf(const PoseGraphSolver2D& solver) {
+Estimate2D estimateOf(const Solver& solver) {
   Estimate2D e;
   for (Index v = 0; v < solver.poses(); ++v) {
-    const SE2 p = solver.estimateAt(v);
-    e[solver.idAt(v)] = Pose2D{p.x(), p.y(), p.theta()};
+    e[solver.idAt(v)] = toPose2D(solver.estimateAt<SE2>(v));
   }
   return e;
 }
@@ -57,31 +98,30 @@ Estimate2D estimateOf(const PoseGraphSolver2D& solver) {
 // The solver's inputs for one online step: its new pose, initialized from the first edge and the
 // solver's estimate of the pose that edge comes from, and its edges.
 struct StepInput {
-  PoseInput pose;
-  std::vector<FactorInput> factors;
+  Var pose;
+  std::vector<Fac> factors;
 };
 
-StepInput stepInput(const PoseGraphSolver2D& solver, const Dataset2D& d, const Step& step) {
+StepInput stepInput(const Solver& solver, const Dataset2D& d, const Step& step) {
   StepInput in;
-  in.pose.id = step.new_pose;
   Pose2D init{};
   if (!step.edges.empty()) {
     const Edge2D& first = d.edges[step.edges.front()];
     const std::int64_t known = first.from == step.new_pose ? first.to : first.from;
     SE2 k;
     REQUIRE(solver.estimate(known, &k) == Status::Ok);
-    init = initialPoseFromEdge(first, step.new_pose, Pose2D{k.x(), k.y(), k.theta()});
+    init = initialPoseFromEdge(first, step.new_pose, toPose2D(k));
   }
-  in.pose.initial = SE2(init.x, init.y, init.theta);
-  for (std::size_t e : step.edges) in.factors.push_back(toFactorInput(d.edges[e]));
+  in.pose = Var::make(step.new_pose, toSE2(init));
+  for (std::size_t e : step.edges) in.factors.push_back(toFactor(d.edges[e]));
   return in;
 }
 
 // Feeds one online step; returns the status.
-Status feedStep(PoseGraphSolver2D& solver, const Dataset2D& d, const Step& step,
-                Estimate2D& initial, lslam::UpdateResult* result = nullptr) {
+Status feedStep(Solver& solver, const Dataset2D& d, const Step& step, Estimate2D& initial,
+                lslam::UpdateResult* result = nullptr) {
   const StepInput in = stepInput(solver, d, step);
-  initial[in.pose.id] = Pose2D{in.pose.initial.x(), in.pose.initial.y(), in.pose.initial.theta()};
+  initial[in.pose.id] = toPose2D(in.pose.get<SE2>());
   return solver.update(&in.pose, 1, in.factors.data(), static_cast<Index>(in.factors.size()),
                        result);
 }
@@ -183,19 +223,18 @@ TEST_CASE(
       Index step = 0;
       Index prepared_step = 0;
       Index ordered_step = 0;
-      runOnline(60, seed, options,
-                [&](const lslam::UpdateResult& r, bool, const PoseGraphSolver2D&) {
-                  variables += r.variables_added;
-                  if (r.ordering_prepared && prepared_at == 0) {
-                    prepared_at = variables;
-                    prepared_step = step;
-                  }
-                  if (r.reordered && ordered_at == 0) {
-                    ordered_at = variables;
-                    ordered_step = step;
-                  }
-                  ++step;
-                });
+      runOnline(60, seed, options, [&](const lslam::UpdateResult& r, bool, const Solver&) {
+        variables += r.variables_added;
+        if (r.ordering_prepared && prepared_at == 0) {
+          prepared_at = variables;
+          prepared_step = step;
+        }
+        if (r.reordered && ordered_at == 0) {
+          ordered_at = variables;
+          ordered_step = step;
+        }
+        ++step;
+      });
       if (ahead) {
         CHECK(prepared_at == options.reorder_min_variables);
         CHECK(ordered_step == prepared_step + 1);
@@ -219,7 +258,7 @@ TEST_CASE(
     CAPTURE(seed);
     std::int64_t last_full = 0;  // block products of the last full refactorization
     runOnline(200, seed, options,
-              [&](const lslam::UpdateResult& r, bool was_prepared, const PoseGraphSolver2D&) {
+              [&](const lslam::UpdateResult& r, bool was_prepared, const Solver&) {
                 if (r.ordering_prepared) {
                   CHECK(last_full >= options.prepare_ordering_min_products);
                   ++prepared;
@@ -244,13 +283,12 @@ TEST_CASE(
   int reorders = 0;
   for (std::uint32_t seed = 80; seed < 84; ++seed) {
     CAPTURE(seed);
-    runOnline(250, seed, options,
-              [&](const lslam::UpdateResult& r, bool, const PoseGraphSolver2D& solver) {
-                reorders += r.reordered ? 1 : 0;
-                std::vector<Index> descending(static_cast<std::size_t>(solver.factor().columns()));
-                std::iota(descending.rbegin(), descending.rend(), 0);
-                REQUIRE(lslam::test::solveOrder(solver.factor()) == descending);
-              });
+    runOnline(250, seed, options, [&](const lslam::UpdateResult& r, bool, const Solver& solver) {
+      reorders += r.reordered ? 1 : 0;
+      std::vector<Index> descending(static_cast<std::size_t>(solver.factor().columns()));
+      std::iota(descending.rbegin(), descending.rend(), 0);
+      REQUIRE(lslam::test::solveOrder(solver.factor()) == descending);
+    });
   }
   CHECK(reorders > 20);
 }
@@ -320,21 +358,21 @@ TEST_CASE("the rent-or-buy rule reorders exactly when the growth work passes its
       std::int64_t excess = 0;
       Index base = 0;
       int orderings = 0;
-      runOnline(300, seed, options,
-                [&](const lslam::UpdateResult& r, bool prepared, const PoseGraphSolver2D&) {
-                  CHECK(r.reordered == prepared);
-                  if (base > 0)
-                    CHECK(r.ordering_prepared == (!prepared && budget > 0 && excess > budget));
-                  if (r.reordered) {
-                    ++orderings;
-                    base = r.factor_blocks;
-                    budget = static_cast<std::int64_t>(
-                        ratio * static_cast<double>(r.block_products) * static_cast<double>(base));
-                    excess = 0;
-                  } else if (base > 0 && r.factor_blocks > base) {
-                    excess += r.block_products * (r.factor_blocks - base);
-                  }
-                });
+      runOnline(
+          300, seed, options, [&](const lslam::UpdateResult& r, bool prepared, const Solver&) {
+            CHECK(r.reordered == prepared);
+            if (base > 0)
+              CHECK(r.ordering_prepared == (!prepared && budget > 0 && excess > budget));
+            if (r.reordered) {
+              ++orderings;
+              base = r.factor_blocks;
+              budget = static_cast<std::int64_t>(ratio * static_cast<double>(r.block_products) *
+                                                 static_cast<double>(base));
+              excess = 0;
+            } else if (base > 0 && r.factor_blocks > base) {
+              excess += r.block_products * (r.factor_blocks - base);
+            }
+          });
       if (ratio == 0.0) {
         CHECK(orderings == 1);  // only the first, at reorder_min_variables
       } else {
@@ -362,7 +400,7 @@ TEST_CASE(
       options.relinearize_urgent_threshold = 0.0;
       options.relinearize_full_cost_ratio = ratio;
       runOnline(200, seed, options,
-                [&](const lslam::UpdateResult& r, bool prepared, const PoseGraphSolver2D&) {
+                [&](const lslam::UpdateResult& r, bool prepared, const Solver&) {
                   CHECK(r.reordered == prepared);
                   if (r.variables_relinearized > 0) (r.refactored_fully ? fully : in_place) += 1;
                   if (r.ordering_prepared) ++postponed;
@@ -387,7 +425,7 @@ struct RelinearizationCheck {
   int updates_taking_all = 0;            // reorderings and full refactorizations that relinearized
 };
 
-void checkRelinearizedSet(const std::vector<Vec3>& before, const PoseGraphSolver2D& solver,
+void checkRelinearizedSet(const std::vector<Vec3>& before, const Solver& solver,
                           const lslam::UpdateResult& r, RelinearizationCheck& seen) {
   const SolverOptions& o = solver.options();
   // A variable is a candidate exactly when its delta is past relinearize_threshold: it was noted
@@ -492,25 +530,25 @@ struct Snapshot {
   }
 };
 
-Snapshot snapshot(const PoseGraphSolver2D& s) {
+// (The graph's stored doubles: a pose's linearization point, x y theta; a factor's measurement
+// and information, 12 doubles for either kind, the anchor included.)
+Snapshot snapshot(const Solver& s) {
   Snapshot snap;
-  const PoseGraph2D& g = s.graph();
-  snap.integers = {s.poses(), s.factors(), s.factorBlocks(), s.factor().columns()};
+  const Solver::Graph& g = s.graph();
+  snap.integers = {s.poses(), s.factors(), s.factorBlocks(), s.factor().columns(),
+                   s.anchorFactor()};
   for (Index v = 0; v < s.poses(); ++v) {
     snap.integers.push_back(s.idAt(v));
     snap.integers.push_back(s.positionOf()[v]);
-    const SE2& lin = g.linearizationPoint(v);
-    const SE2 est = s.estimateAt(v);
-    for (double x : {lin.x(), lin.y(), lin.theta(), est.x(), est.y(), est.theta()})
-      snap.values.push_back(x);
+    const SE2 est = s.estimateAt<SE2>(v);
+    snap.values.insert(snap.values.end(), g.variableValues(v), g.variableValues(v) + 3);
+    for (double x : {est.x(), est.y(), est.theta()}) snap.values.push_back(x);
   }
   for (Index f = 0; f < s.factors(); ++f) {
-    snap.integers.push_back(static_cast<int>(g.kind(f)));
+    snap.integers.push_back(g.factorKind(f));
     snap.integers.push_back(g.firstVariable(f));
     snap.integers.push_back(g.secondVariable(f));
-    const SE2& z = g.measurement(f);
-    for (double x : {z.x(), z.y(), z.theta()}) snap.values.push_back(x);
-    for (int i = 0; i < 9; ++i) snap.values.push_back(g.information(f)(i));
+    snap.values.insert(snap.values.end(), g.factorValues(f), g.factorValues(f) + 12);
   }
   const IncrementalCholesky<3>& l = s.factor();
   for (Index k = 0; k < l.columns(); ++k) {
@@ -525,7 +563,7 @@ Snapshot snapshot(const PoseGraphSolver2D& s) {
 
 // Feeds the online steps of d to two solvers in turn; check(step, result_a, result_b) after each.
 template <class Check>
-void feedSideBySide(PoseGraphSolver2D& a, PoseGraphSolver2D& b, const Dataset2D& d, Check check) {
+void feedSideBySide(Solver& a, Solver& b, const Dataset2D& d, Check check) {
   const std::vector<Step> steps = buildSteps(d, StepOrder::Online);
   Estimate2D initial_a;
   Estimate2D initial_b;
@@ -539,26 +577,20 @@ void feedSideBySide(PoseGraphSolver2D& a, PoseGraphSolver2D& b, const Dataset2D&
   }
 }
 
-FactorInput between(VariableId from, VariableId to, const SE2& z) {
-  FactorInput f;
-  f.kind = FactorKind::BetweenSE2;
-  f.from = from;
-  f.to = to;
-  f.measurement = z;
-  f.information = Mat3::Identity() * 100.0;
-  return f;
+Fac between(VariableId from, VariableId to, const SE2& z) {
+  return betweenFactor(from, to, z, Mat3::Identity() * 100.0);
 }
 
-// The factor with its kind set to a value outside FactorKind.
-FactorInput withKind(FactorInput f, std::uint8_t kind) {
-  f.kind = static_cast<FactorKind>(kind);
+// The factor with its kind set to a value outside PoseSlam2D's factor list.
+Fac withKind(Fac f, std::uint8_t kind) {
+  f.kind = kind;
   return f;
 }
 
 struct BadCall {
   const char* what;
-  std::vector<PoseInput> poses;
-  std::vector<FactorInput> factors;
+  std::vector<Var> poses;
+  std::vector<Fac> factors;
   Status expected;
   // Rejected by the factorization, not before it: such a call may do the pending solve layout
   // first (beginUpdate), a storage order that changes no value.
@@ -575,19 +607,15 @@ std::vector<BadCall> badCalls(VariableId n, const SE2& step) {
   indefinite(2, 2) = -1.0;
   Mat3 nan_info = Mat3::Identity();
   nan_info(1, 1) = nan;
-  auto with_info = [&](const Mat3& info) {
-    FactorInput f = between(n - 1, n, step);
-    f.information = info;
-    return f;
-  };
-  const PoseInput next{n, SE2(static_cast<double>(n), 0.0, 0.0)};
+  auto with_info = [&](const Mat3& info) { return withInformation(between(n - 1, n, step), info); };
+  const Var next = Var::make(n, SE2(static_cast<double>(n), 0.0, 0.0));
   return {
       {"NaN in a measurement",
        {next},
        {between(n - 1, n, SE2(nan, 0.0, 0.0))},
        Status::NonFiniteInput},
       {"Inf in an initial value",
-       {{n, SE2(inf, 0.0, 0.0)}},
+       {Var::make(n, SE2(inf, 0.0, 0.0))},
        {between(n - 1, n, step)},
        Status::NonFiniteInput},
       {"NaN in an information matrix", {next}, {with_info(nan_info)}, Status::NonFiniteInput},
@@ -608,7 +636,7 @@ std::vector<BadCall> badCalls(VariableId n, const SE2& step) {
        {between(n - 1, n, step), between(n + 47, n, step)},
        Status::UnknownVariable},
       {"duplicate pose id (existing)",
-       {{12, SE2()}},
+       {Var::make(12, SE2())},
        {between(11, 12, step)},
        Status::DuplicateVariable},
       {"duplicate pose id (twice in one call)",
@@ -616,17 +644,17 @@ std::vector<BadCall> badCalls(VariableId n, const SE2& step) {
        {between(n - 1, n, step)},
        Status::DuplicateVariable},
       {"unconstrained new pose",
-       {next, {n + 1, SE2()}},
+       {next, Var::make(n + 1, SE2())},
        {between(n - 1, n, step)},
        Status::UnconstrainedVariable},
       {"self loop",
        {next},
        {between(n - 1, n, step), between(n, n, step)},
        Status::InvalidArgument},
-      {"negative id", {{-4, SE2()}}, {between(n - 1, -4, step)}, Status::InvalidArgument},
-      // A kind that is neither a prior nor a between (an integer cast to FactorKind): its `to`
-      // names a pose (a check that took it for a between would pass it), and names none (one
-      // that let it through would reach PoseGraph2D's assertion).
+      {"negative id", {Var::make(-4, SE2())}, {between(n - 1, -4, step)}, Status::InvalidArgument},
+      // A kind that is neither a prior nor a between (a byte past PoseSlam2D::Factors): its
+      // second id names a pose (a check that took it for a between would pass it), and names none
+      // (one that let it through would reach the graph's assertion).
       {"a factor kind out of range, its to known",
        {next},
        {between(n - 1, n, step), withKind(between(n - 2, n - 1, step), 2)},
@@ -646,32 +674,20 @@ std::vector<BadCall> badCalls(VariableId n, const SE2& step) {
       // Information and error each finite, their product (eta = J^T Omega e) not: 1e300 x 1e10.
       {"information times error beyond a double",
        {next},
-       {[&] {
-         FactorInput f = between(n - 1, n, SE2(1e10, 0.0, 0.0));
-         f.information = Mat3::Identity() * 1e300;
-         return f;
-       }()},
+       {withInformation(between(n - 1, n, SE2(1e10, 0.0, 0.0)), Mat3::Identity() * 1e300)},
        Status::NumericalOverflow,
        true},
       {"the same as a loop closure",
        {next},
        {between(n - 1, n, step),
-        [&] {
-          FactorInput f = between(n / 2, n - 1, SE2(-1e10, 1e10, 0.0));
-          f.information = Mat3::Identity() * 1e300;
-          return f;
-        }()},
+        withInformation(between(n / 2, n - 1, SE2(-1e10, 1e10, 0.0)), Mat3::Identity() * 1e300)},
        Status::NumericalOverflow,
        true},
       // A loop closure alone, between existing poses (the row update's own check is tested in
       // test_incremental_cholesky).
       {"a loop closure alone",
        {},
-       {[&] {
-         FactorInput f = between(n / 2, n - 1, SE2(1e200, 0.0, 0.0));
-         f.information = Mat3::Identity() * 1e300;
-         return f;
-       }()},
+       {withInformation(between(n / 2, n - 1, SE2(1e200, 0.0, 0.0)), Mat3::Identity() * 1e300)},
        Status::NumericalOverflow,
        true},
   };
@@ -685,10 +701,10 @@ TEST_CASE("every rejected input returns its status and leaves the solver bit-ide
   auto solver = std::make_unique<SmallSolver>();
   auto reference = std::make_unique<SmallSolver>();  // sees only the valid inputs
   const SE2 step(1.0, 0.0, 0.1);
-  auto feed = [&](PoseGraphSolver2D& s, VariableId id, UpdateResult* r = nullptr) {
-    PoseInput p{id, SE2(static_cast<double>(id), 0.0, 0.0)};
+  auto feed = [&](Solver& s, VariableId id, UpdateResult* r = nullptr) {
+    const Var p = Var::make(id, SE2(static_cast<double>(id), 0.0, 0.0));
     if (id == 0) return s.update(&p, 1, nullptr, 0, r);
-    FactorInput f[2] = {between(id - 1, id, step), between(id / 2, id, SE2(0.5, 0.2, 0.0))};
+    Fac f[2] = {between(id - 1, id, step), between(id / 2, id, SE2(0.5, 0.2, 0.0))};
     return s.update(&p, 1, f, id > 3 ? 2 : 1, r);
   };
   VariableId n = 0;  // the next pose id
@@ -729,7 +745,7 @@ TEST_CASE("every rejected input returns its status and leaves the solver bit-ide
   CHECK_FALSE(solver->factor().layoutPending());
   CHECK_FALSE(feedBoth().laid_out);
   // Capacity: a solver that is full rejects the next pose and keeps everything.
-  auto tiny = std::make_unique<StaticPoseGraphSolver2D<5, 8, 200>>();
+  auto tiny = std::make_unique<PoseSmoother<5, 8, 200>>();
   for (VariableId id = 0; id < 5; ++id) REQUIRE(feed(*tiny, id) == Status::Ok);
   const Snapshot full = snapshot(*tiny);
   CHECK(feed(*tiny, 5) == Status::CapacityExhausted);
@@ -751,39 +767,33 @@ Mat3 overflowingInformation() {
   return Mat3::Identity() * 1.5e308;
 }
 
-// A loop closure to committed pose `to` from an earlier pose at least 2 m from it (none: `from`
-// is kNoIndex), its measurement where the estimates are, its information overflowing.
-FactorInput overflowingLoopClosure(const PoseGraphSolver2D& solver, Index to, std::mt19937& rng) {
-  const SE2 to_pose = solver.estimateAt(to);
+// A loop closure to committed pose `to` from an earlier pose at least 2 m from it (none when no
+// pose is that far), its measurement where the estimates are, its information overflowing.
+std::optional<Fac> overflowingLoopClosure(const Solver& solver, Index to, std::mt19937& rng) {
+  const SE2 to_pose = solver.estimateAt<SE2>(to);
   std::vector<Index> far;
   for (Index v = 0; v < to; ++v) {
-    const SE2 from_pose = solver.estimateAt(v);
+    const SE2 from_pose = solver.estimateAt<SE2>(v);
     if (std::hypot(to_pose.x() - from_pose.x(), to_pose.y() - from_pose.y()) >= 2.0)
       far.push_back(v);
   }
-  FactorInput f;
-  f.kind = FactorKind::BetweenSE2;
-  f.from = kNoIndex;
-  if (far.empty()) return f;
+  if (far.empty()) return std::nullopt;
   const Index from = far[rng() % far.size()];
-  f.from = solver.idAt(from);
-  f.to = solver.idAt(to);
-  f.measurement = solver.estimateAt(from).between(to_pose);
-  f.information = overflowingInformation();
-  return f;
+  return betweenFactor(solver.idAt(from), solver.idAt(to),
+                       solver.estimateAt<SE2>(from).between(to_pose), overflowingInformation());
 }
 
 // The same to the newest committed pose, which has such an earlier pose in every state tested.
-FactorInput overflowingLoopClosureToNewest(const PoseGraphSolver2D& solver, std::mt19937& rng) {
-  const FactorInput f = overflowingLoopClosure(solver, solver.poses() - 1, rng);
-  REQUIRE(f.from != kNoIndex);
-  return f;
+Fac overflowingLoopClosureToNewest(const Solver& solver, std::mt19937& rng) {
+  const std::optional<Fac> f = overflowingLoopClosure(solver, solver.poses() - 1, rng);
+  REQUIRE(f.has_value());
+  return *f;
 }
 
 struct FailingUpdate {
   const char* what;
-  std::vector<PoseInput> poses;
-  std::vector<FactorInput> factors;
+  std::vector<Var> poses;
+  std::vector<Fac> factors;
   bool loop_closure = false;  // an overflowing factor is a loop closure
   bool burst = false;         // more loop closures than kBurst
 };
@@ -797,15 +807,14 @@ constexpr Index kBurst = 2;
 // overflowing loop closure alone (a row update, or recomputed columns); the next valid step with
 // such a loop closure added (paired row updates); a burst of such loop closures (a fresh ordering
 // at once, which overwrites an ordering prepared before: the failure must prepare it again).
-FailingUpdate failingUpdate(const PoseGraphSolver2D& solver, const StepInput& next,
-                            std::mt19937& rng) {
+FailingUpdate failingUpdate(const Solver& solver, const StepInput& next, std::mt19937& rng) {
   FailingUpdate bad;
   switch (rng() % 4) {
     case 0:
       bad.what = "the next step, its odometry overflowing";
       bad.poses = {next.pose};
       bad.factors = next.factors;
-      bad.factors.front().information = overflowingInformation();
+      bad.factors.front() = withInformation(bad.factors.front(), overflowingInformation());
       break;
     case 1:
       bad.what = "an overflowing loop closure alone";
@@ -826,8 +835,8 @@ FailingUpdate failingUpdate(const PoseGraphSolver2D& solver, const StepInput& ne
       // would be the prepared one.
       while (static_cast<Index>(bad.factors.size()) <= kBurst) {
         const Index to = static_cast<Index>(rng() % static_cast<std::uint32_t>(solver.poses() - 1));
-        const FactorInput f = overflowingLoopClosure(solver, to, rng);
-        if (f.from != kNoIndex) bad.factors.push_back(f);
+        const std::optional<Fac> f = overflowingLoopClosure(solver, to, rng);
+        if (f) bad.factors.push_back(*f);
       }
       bad.loop_closure = true;
       bad.burst = true;
@@ -926,7 +935,7 @@ TEST_CASE(
 TEST_CASE("a pool small enough to need compactions gives the estimate of one that needs none") {
   // Compaction (ahead of an update that would probably not fit, or after one that did not) moves
   // columns but must not change a single value.
-  using TightSolver = StaticPoseGraphSolver2D<400, 1200, 6000>;
+  using TightSolver = PoseSmoother<400, 1200, 6000>;
   for (std::uint32_t seed = 60; seed < 64; ++seed) {
     CAPTURE(seed);
     const Dataset2D d = syntheticWorld(300, seed);
@@ -946,35 +955,6 @@ TEST_CASE("a pool small enough to need compactions gives the estimate of one tha
   }
 }
 
-TEST_CASE("the linearization cache changes no bit of the solver's state") {
-  // The same worlds through a solver that keeps every factor's linearization between full
-  // refactorizations and one without the cache's memory, both with a pool tight enough to need
-  // compactions (a full refactorization that fails for room is retried within its update, reading
-  // what the failed attempt kept at the staged points).
-  using CachedSolver = StaticPoseGraphSolver2D<400, 1200, 6000>;
-  using UncachedSolver = StaticPoseGraphSolver2D<400, 1200, 6000, false>;
-  for (std::uint32_t seed = 70; seed < 74; ++seed) {
-    CAPTURE(seed);
-    const Dataset2D d = syntheticWorld(300, seed);
-    SolverOptions options;
-    options.reorder_min_variables = 20;
-    options.reorder_path_columns = 30;
-    auto cached = std::make_unique<CachedSolver>(options);
-    auto uncached = std::make_unique<UncachedSolver>(options);
-    int full_refactorizations = 0;
-    feedSideBySide(
-        *cached, *uncached, d,
-        [&](std::size_t s, const UpdateResult& r_cached, const UpdateResult& r_uncached) {
-          CHECK(r_cached.refactored_fully == r_uncached.refactored_fully);
-          CHECK(r_cached.variables_relinearized == r_uncached.variables_relinearized);
-          full_refactorizations += r_cached.refactored_fully ? 1 : 0;
-          if (s % 25 == 24) CHECK(snapshot(*cached) == snapshot(*uncached));
-        });
-    CHECK(snapshot(*cached) == snapshot(*uncached));
-    CHECK(full_refactorizations > 5);
-  }
-}
-
 namespace {
 
 // d with every loop closure listed after the last odometry edge: in file order the last step adds
@@ -987,9 +967,8 @@ Dataset2D loopClosuresLast(const Dataset2D& d) {
 }
 
 // Feeds steps [first, last) in order to the solver; returns the last result.
-UpdateResult feedSteps(PoseGraphSolver2D& solver, const Dataset2D& d,
-                       const std::vector<Step>& steps, std::size_t first, std::size_t last,
-                       Estimate2D& initial) {
+UpdateResult feedSteps(Solver& solver, const Dataset2D& d, const std::vector<Step>& steps,
+                       std::size_t first, std::size_t last, Estimate2D& initial) {
   UpdateResult r;
   for (std::size_t s = first; s < last; ++s) {
     CAPTURE(s);
@@ -1002,13 +981,13 @@ UpdateResult feedSteps(PoseGraphSolver2D& solver, const Dataset2D& d,
 // until the first step after `min_steps` that prepares an ordering for the next update; the burst
 // is every loop closure among the poses they hold then.
 struct Burst {
-  std::size_t next_step = 0;         // the first step not fed
-  std::vector<std::size_t> edges;    // the burst's edges (indices into d.edges)
-  std::vector<FactorInput> factors;  // the same, as solver input
-  Dataset2D seen;                    // the edges fed before the burst and the burst's
+  std::size_t next_step = 0;       // the first step not fed
+  std::vector<std::size_t> edges;  // the burst's edges (indices into d.edges)
+  std::vector<Fac> factors;        // the same, as solver input
+  Dataset2D seen;                  // the edges fed before the burst and the burst's
 };
 
-Burst feedChainUntilPrepared(const std::vector<PoseGraphSolver2D*>& solvers, const Dataset2D& d,
+Burst feedChainUntilPrepared(const std::vector<Solver*>& solvers, const Dataset2D& d,
                              const std::vector<Step>& steps, std::size_t min_steps,
                              std::vector<Estimate2D>& initial) {
   Burst burst;
@@ -1028,7 +1007,7 @@ Burst feedChainUntilPrepared(const std::vector<PoseGraphSolver2D*>& solvers, con
     const Edge2D& edge = d.edges[e];
     if (std::max(edge.from, edge.to) >= steps[s].new_pose) continue;
     burst.edges.push_back(e);
-    burst.factors.push_back(toFactorInput(edge));
+    burst.factors.push_back(toFactor(edge));
     burst.seen.edges.push_back(edge);
   }
   return burst;
@@ -1053,7 +1032,7 @@ SolverOptions withoutBurstRule() {
   return o;
 }
 
-Status feedBurst(PoseGraphSolver2D& solver, const Burst& burst, UpdateResult* r) {
+Status feedBurst(Solver& solver, const Burst& burst, UpdateResult* r) {
   return solver.update(nullptr, 0, burst.factors.data(), static_cast<Index>(burst.factors.size()),
                        r);
 }
@@ -1067,8 +1046,8 @@ TEST_CASE("a burst of loop closures is factorized in a fresh ordering that has t
   // and give the same bits; and one without the rule that recomputes columns in a pool roomy enough
   // for that fill (the same estimate to rounding, in many more blocks). All three then reach the
   // batch optimum with optimize().
-  using TightSolver = StaticPoseGraphSolver2D<400, 1200, 4500>;
-  using RoomySolver = StaticPoseGraphSolver2D<400, 1200, 200000>;
+  using TightSolver = PoseSmoother<400, 1200, 4500>;
+  using RoomySolver = PoseSmoother<400, 1200, 200000>;
   for (std::uint32_t seed = 80; seed < 84; ++seed) {
     CAPTURE(seed);
     const auto [d, steps] = lateWorld(seed);
@@ -1097,9 +1076,7 @@ TEST_CASE("a burst of loop closures is factorized in a fresh ordering that has t
     CHECK(maxPositionDiff(estimateOf(*plain), estimateOf(*with_rule)) < 1e-9);
     const BatchResult batch = solveBatch2D(burst.seen, initial[0]);
     REQUIRE(batch.converged);
-    for (PoseGraphSolver2D* solver : {static_cast<PoseGraphSolver2D*>(with_rule.get()),
-                                      static_cast<PoseGraphSolver2D*>(fallback.get()),
-                                      static_cast<PoseGraphSolver2D*>(plain.get())}) {
+    for (Solver* solver : std::vector<Solver*>{with_rule.get(), fallback.get(), plain.get()}) {
       CAPTURE(solver->factorBlocks());
       REQUIRE(solver->optimize(50, 1e-10) == Status::Ok);
       const Estimate2D inc = estimateOf(*solver);
@@ -1114,7 +1091,7 @@ TEST_CASE(
   // The burst's fresh ordering overwrites the prepared one; when even that does not fit, the
   // rejected update must leave the solver as it was, prepared ordering included: it then goes on
   // exactly like one that never saw the burst.
-  using TinySolver = StaticPoseGraphSolver2D<400, 1200, 700>;
+  using TinySolver = PoseSmoother<400, 1200, 700>;
   for (std::uint32_t seed = 90; seed < 93; ++seed) {
     CAPTURE(seed);
     const auto [d, steps] = lateWorld(seed);
@@ -1144,10 +1121,10 @@ TEST_CASE(
 
 namespace {
 
-// Memory for a solver's own arrays (SolverArrays), each array in a buffer of its own with guard
-// bytes on both sides: a write outside an array shows in its guards. (In StaticPoseGraphSolver2D
-// the two order buffers lie back to back in one object, where index -1 of the second is the last
-// entry of the first: no sanitizer sees a write there.)
+// Memory for a solver's own arrays (SmootherArrays), each array in a buffer of its own with guard
+// bytes on both sides: a write outside an array shows in its guards. (In StaticSmoother the two
+// order buffers lie back to back in one object, where index -1 of the second is the last entry of
+// the first: no sanitizer sees a write there.)
 class GuardedArrays {
  public:
   template <class T>
@@ -1179,23 +1156,27 @@ class GuardedArrays {
   std::vector<std::shared_ptr<void>> owners_;
 };
 
-// A PoseGraphSolver2D built on GuardedArrays (its parts' arrays from the usual static storages).
+// A Smoother<PoseSlam2D> built on GuardedArrays (its parts' arrays from the usual static
+// storages; the landmark kind's id map, unused, of one entry).
 template <Index MaxPoses, Index MaxFactors, Index MaxBlocks>
 struct GuardedSolver {
   GuardedArrays guarded;
-  std::unique_ptr<StaticPoseGraph2DStorage<MaxPoses, MaxFactors>> graph =
-      std::make_unique<StaticPoseGraph2DStorage<MaxPoses, MaxFactors>>();
+  std::unique_ptr<StaticFactorGraphStorage<PoseSlam2D, MaxPoses, 0, MaxFactors, MaxFactors* 12>>
+      graph = std::make_unique<
+          StaticFactorGraphStorage<PoseSlam2D, MaxPoses, 0, MaxFactors, MaxFactors * 12>>();
   std::unique_ptr<StaticCholeskyStorage<3, MaxPoses, MaxBlocks>> factor =
       std::make_unique<StaticCholeskyStorage<3, MaxPoses, MaxBlocks>>();
   std::unique_ptr<StaticColamdStorage<2 * MaxFactors, MaxFactors, MaxPoses>> ordering =
       std::make_unique<StaticColamdStorage<2 * MaxFactors, MaxFactors, MaxPoses>>();
-  std::unique_ptr<StaticIdMapStorage<MaxPoses>> ids =
+  std::unique_ptr<StaticIdMapStorage<MaxPoses>> pose_ids =
       std::make_unique<StaticIdMapStorage<MaxPoses>>();
-  std::unique_ptr<PoseGraphSolver2D> solver;
+  std::unique_ptr<StaticIdMapStorage<1>> landmark_ids = std::make_unique<StaticIdMapStorage<1>>();
+  IdMapArrays ids[2];
+  std::unique_ptr<Solver> solver;
 
   explicit GuardedSolver(const SolverOptions& options) {
     const auto n = static_cast<std::size_t>(MaxPoses);
-    SolverArrays a;
+    SmootherArrays<PoseSlam2D> a;
     for (int b = 0; b < 2; ++b) {
       a.position_of[b] = guarded.make<Index>(n);
       a.variable_at[b] = guarded.make<Index>(n);
@@ -1210,25 +1191,26 @@ struct GuardedSolver {
     a.in_last = guarded.make<std::uint8_t>(n);
     a.ordering_parent = guarded.make<Index>(n);
     a.ordering_count = guarded.make<Index>(n);
-    a.anchored = guarded.make<std::uint8_t>(n);
-    solver = std::make_unique<PoseGraphSolver2D>(a, graph->arrays(), factor->arrays(),
-                                                 ordering->arrays(), ids->arrays(), options);
+    a.held = guarded.make<std::uint8_t>(n + 1);
+    ids[0] = pose_ids->arrays();
+    ids[1] = landmark_ids->arrays();
+    solver = std::make_unique<Solver>(a, graph->arrays(), factor->arrays(), ordering->arrays(), ids,
+                                      options);
   }
 };
 
 // One update with every pose of d (initial values: its vertices) and every edge.
-Status updateWithAll(PoseGraphSolver2D& solver, const Dataset2D& d, UpdateResult* r) {
-  std::vector<PoseInput> poses;
-  for (const Vertex2D& v : d.vertices)
-    poses.push_back(PoseInput{v.id, SE2(v.pose.x, v.pose.y, v.pose.theta)});
-  std::vector<FactorInput> factors;
-  for (const Edge2D& e : d.edges) factors.push_back(toFactorInput(e));
+Status updateWithAll(Solver& solver, const Dataset2D& d, UpdateResult* r) {
+  std::vector<Var> poses;
+  for (const Vertex2D& v : d.vertices) poses.push_back(Var::make(v.id, toSE2(v.pose)));
+  std::vector<Fac> factors;
+  for (const Edge2D& e : d.edges) factors.push_back(toFactor(e));
   return solver.update(poses.data(), static_cast<Index>(poses.size()), factors.data(),
                        static_cast<Index>(factors.size()), r);
 }
 
 // Whether the solver's order is a permutation of its variables with the newest last.
-bool validOrder(const PoseGraphSolver2D& solver) {
+bool validOrder(const Solver& solver) {
   const Index n = solver.poses();
   std::vector<Index> seen(static_cast<std::size_t>(n), 0);
   for (Index k = 0; k < n; ++k) {
@@ -1337,15 +1319,17 @@ TEST_CASE(
   }
 }
 
-TEST_CASE("a factor kind outside FactorKind in a first update is rejected and changes nothing") {
+TEST_CASE(
+    "a factor kind outside PoseSlam2D's factors in a first update is rejected and changes "
+    "nothing") {
   auto solver = std::make_unique<SmallSolver>();
   const Snapshot empty = snapshot(*solver);
-  const PoseInput poses[2] = {{0, SE2()}, {1, SE2(1.0, 0.0, 0.0)}};
+  const Var poses[2] = {Var::make(0, SE2()), Var::make(1, SE2(1.0, 0.0, 0.0))};
   for (const std::uint8_t kind : {std::uint8_t{2}, std::uint8_t{255}}) {
     CAPTURE(int{kind});
     for (const VariableId to : {VariableId{1}, VariableId{7}}) {
       CAPTURE(to);
-      const FactorInput f = withKind(between(0, to, SE2(1.0, 0.0, 0.0)), kind);
+      const Fac f = withKind(between(0, to, SE2(1.0, 0.0, 0.0)), kind);
       UpdateResult r;
       CHECK(solver->update(poses, 2, &f, 1, &r) == Status::InvalidArgument);
       CHECK(r.status == Status::InvalidArgument);
@@ -1353,7 +1337,7 @@ TEST_CASE("a factor kind outside FactorKind in a first update is rejected and ch
     }
   }
   // Nothing of it stayed: the same ids are new to the solver.
-  const FactorInput odometry = between(0, 1, SE2(1.0, 0.0, 0.0));
+  const Fac odometry = between(0, 1, SE2(1.0, 0.0, 0.0));
   CHECK(solver->update(poses, 2, &odometry, 1) == Status::Ok);
 }
 
@@ -1372,7 +1356,7 @@ struct PriorWorld {
   Dataset2D d;          // the world's edges
   Dataset2D reference;  // d's edges and the priors as edges from kOrigin
   std::vector<Step> steps;
-  std::map<std::int64_t, FactorInput> prior_of;  // pose id -> its prior
+  std::map<std::int64_t, Fac> prior_of;  // pose id -> its prior
 };
 
 PriorWorld priorWorld(int poses, std::uint32_t seed, std::int64_t first, std::int64_t every) {
@@ -1396,12 +1380,7 @@ PriorWorld priorWorld(int poses, std::uint32_t seed, std::int64_t first, std::in
     information << 4.0, 0.5, 0.0,  //
         0.5, 3.0, 0.2,             //
         0.0, 0.2, 400.0;
-    FactorInput f;
-    f.kind = FactorKind::PriorSE2;
-    f.from = id;
-    f.measurement = SE2(z.x, z.y, z.theta);
-    f.information = information;
-    p.prior_of[id] = f;
+    p.prior_of[id] = priorFactor(id, toSE2(z), information);
     Edge2D e;
     e.from = kOrigin;
     e.to = id;
@@ -1413,14 +1392,13 @@ PriorWorld priorWorld(int poses, std::uint32_t seed, std::int64_t first, std::in
 }
 
 // Feeds step s of the world (its prior, if its pose has one, after its edges).
-Status feedPriorStep(PoseGraphSolver2D& solver, const PriorWorld& w, std::size_t s,
-                     Estimate2D& initial, UpdateResult* r = nullptr) {
+Status feedPriorStep(Solver& solver, const PriorWorld& w, std::size_t s, Estimate2D& initial,
+                     UpdateResult* r = nullptr) {
   StepInput in = stepInput(solver, w.d, w.steps[s]);
   if (s == 0) {  // the first pose from its vertex (the moved start)
-    const Pose2D& v = w.d.vertices.front().pose;
-    in.pose.initial = SE2(v.x, v.y, v.theta);
+    in.pose = Var::make(in.pose.id, toSE2(w.d.vertices.front().pose));
   }
-  initial[in.pose.id] = Pose2D{in.pose.initial.x(), in.pose.initial.y(), in.pose.initial.theta()};
+  initial[in.pose.id] = toPose2D(in.pose.get<SE2>());
   const auto prior = w.prior_of.find(in.pose.id);
   if (prior != w.prior_of.end()) in.factors.push_back(prior->second);
   return solver.update(&in.pose, 1, in.factors.data(), static_cast<Index>(in.factors.size()), r);
@@ -1436,7 +1414,7 @@ BatchResult referenceOptimum(const PriorWorld& w, Estimate2D initial) {
 
 // sum e^T Omega e of the reference's edges among the solver's poses at its estimate, by
 // host_sim's chi2.
-double referenceChi2(const PriorWorld& w, const PoseGraphSolver2D& solver) {
+double referenceChi2(const PriorWorld& w, const Solver& solver) {
   Estimate2D e = estimateOf(solver);
   e[kOrigin] = Pose2D{};
   Dataset2D seen;
@@ -1502,7 +1480,7 @@ TEST_CASE(
       if (w.steps[s].new_pose == 40) {
         // The step with its prior and its odometry's information overflowing in the factorization.
         StepInput bad = stepInput(*solver, w.d, w.steps[s]);
-        bad.factors.front().information = overflowingInformation();
+        bad.factors.front() = withInformation(bad.factors.front(), overflowingInformation());
         bad.factors.push_back(w.prior_of.at(40));
         const Snapshot before = snapshot(*solver);
         CHECK(solver->update(&bad.pose, 1, bad.factors.data(),
@@ -1532,24 +1510,17 @@ TEST_CASE(
     for (std::size_t s = 0; s < fed; ++s)
       REQUIRE(feedPriorStep(*solver, w, s, initial) == Status::Ok);
     const VariableId newest = w.steps[fed - 1].new_pose;
-    FactorInput prior;
-    prior.kind = FactorKind::PriorSE2;
-    prior.from = 5000;
-    prior.measurement = SE2(1.0, 2.0, 0.3);
-    prior.information = Vec3(4.0, 4.0, 100.0).asDiagonal();
-    const PoseInput island{5000, SE2(1.0, 2.0, 0.3)};
+    const Mat3 prior_information = Vec3(4.0, 4.0, 100.0).asDiagonal();
+    const Fac prior = priorFactor(5000, SE2(1.0, 2.0, 0.3), prior_information);
+    const Var island = Var::make(5000, SE2(1.0, 2.0, 0.3));
     // A pose held by its own prior alone: the map would lose its anchor and float free.
     const Snapshot before = snapshot(*solver);
     CHECK(solver->update(&island, 1, &prior, 1) == Status::UnconstrainedVariable);
     CHECK(snapshot(*solver) == before);
     // The same pose seen from the map's newest pose: the map is held through it.
-    FactorInput seen;
-    seen.kind = FactorKind::BetweenSE2;
-    seen.from = newest;
-    seen.to = 5000;
-    seen.measurement = SE2(0.5, -0.2, 0.1);
-    seen.information = Vec3(100.0, 100.0, 400.0).asDiagonal();
-    const FactorInput both[2] = {prior, seen};
+    const Mat3 seen_information = Vec3(100.0, 100.0, 400.0).asDiagonal();
+    const Fac seen = betweenFactor(newest, 5000, SE2(0.5, -0.2, 0.1), seen_information);
+    const Fac both[2] = {prior, seen};
     REQUIRE(solver->update(&island, 1, both, 2) == Status::Ok);
     REQUIRE(solver->optimize(50, 1e-10) == Status::Ok);
     // The reference: the map's edges, the prior as an edge from the fixed origin, and the edge to
@@ -1561,13 +1532,13 @@ TEST_CASE(
     gps.from = kOrigin;
     gps.to = 5000;
     gps.measurement = Pose2D{1.0, 2.0, 0.3};
-    gps.information = prior.information;
+    gps.information = prior_information;
     reference.edges.push_back(gps);
     Edge2D link;
     link.from = newest;
     link.to = 5000;
     link.measurement = Pose2D{0.5, -0.2, 0.1};
-    link.information = seen.information;
+    link.information = seen_information;
     reference.edges.push_back(link);
     initial[5000] = Pose2D{1.0, 2.0, 0.3};
     initial[kOrigin] = Pose2D{};
