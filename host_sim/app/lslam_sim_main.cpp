@@ -209,7 +209,10 @@ void writeModelEstimate(const std::string& path, const ModelDataset& d, const Mo
   for (const VariableKey& key : keys) {
     out.vertices.push_back(ModelVertex{key, kinds.at(key), run.estimate.at(key), 0});
   }
+  // g2o records: an iSAM file's information goes over as the solver took it, in g2o's error
+  // coordinates (solverInformation), so that the file reads back as the problem solved.
   out.factors = d.factors;
+  for (ModelFactor& f : out.factors) f.information = solverInformation(d, f);
   if (run.anchor.id >= 0) out.fixed = {run.anchor};
   writeModelG2oFile(path, out);
 }

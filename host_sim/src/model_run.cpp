@@ -125,16 +125,19 @@ void visitHostKind(FactorKind kind, Fn&& fn) {
 
 // ---- Steps -----------------------------------------------------------------------------------
 
-// A step is odometry when its only between factor links the new pose to the pose introduced just
-// before (landmark observations do not change that); a between factor to any other pose makes it
-// a loop closure.
+// A step is odometry when every between factor it holds links its new pose and the pose introduced
+// just before (landmark observations do not change that); any other between factor makes it a loop
+// closure (in file order, one between two poses seen before too).
 StepKind classify(const ModelDataset& d, const ModelStep& step, std::int64_t previous_pose) {
   if (previous_pose < 0) return StepKind::First;
   for (std::size_t k : step.factors) {
     const ModelFactor& f = d.factors[k];
     if (f.kind != FactorKind::BetweenSE2 && f.kind != FactorKind::BetweenSE3) continue;
-    const std::int64_t other = f.first.id == step.new_pose.id ? f.second.id : f.first.id;
-    if (other != previous_pose) return StepKind::LoopClosure;
+    const std::int64_t a = f.first.id, b = f.second.id;
+    const std::int64_t pose = step.new_pose.id;
+    if (!((a == pose && b == previous_pose) || (b == pose && a == previous_pose))) {
+      return StepKind::LoopClosure;
+    }
   }
   return StepKind::Odometry;
 }
@@ -365,10 +368,14 @@ template ModelVariableInput<Slam2D> modelVariableInput<Slam2D>(const VariableKey
                                                                const Eigen::VectorXd&);
 template ModelVariableInput<Slam3D> modelVariableInput<Slam3D>(const VariableKey&,
                                                                const Eigen::VectorXd&);
+template ModelVariableInput<PoseSlam2D> modelVariableInput<PoseSlam2D>(const VariableKey&,
+                                                                       const Eigen::VectorXd&);
 template ModelVariableInput<PoseSlam3D> modelVariableInput<PoseSlam3D>(const VariableKey&,
                                                                        const Eigen::VectorXd&);
 template ModelFactorInput<Slam2D> modelFactorInput<Slam2D>(const ModelDataset&, const ModelFactor&);
 template ModelFactorInput<Slam3D> modelFactorInput<Slam3D>(const ModelDataset&, const ModelFactor&);
+template ModelFactorInput<PoseSlam2D> modelFactorInput<PoseSlam2D>(const ModelDataset&,
+                                                                   const ModelFactor&);
 template ModelFactorInput<PoseSlam3D> modelFactorInput<PoseSlam3D>(const ModelDataset&,
                                                                    const ModelFactor&);
 

@@ -556,6 +556,53 @@ void relinearizeRandomly(Harness<Model>& h, Index v, double scale) {
 
 // ---- The tests, for both models ---------------------------------------------------------------
 
+// The row update's rows of every factor, multiplied out: sum R R^T and R rhs must be Lambda and
+// eta (the row update rotates exactly these rows into L).
+template <class Model>
+Dense fromWhitenedRows(const FactorGraph<Model>& graph) {
+  using Sizes = ModelBlockSizes<Model>;
+  using Graph = FactorGraph<Model>;
+  const Index n = graph.variables();
+  const auto width = [&](Index v) { return Sizes::sizeOfKind(graph.variableKind(v)); };
+  std::vector<Index> off(static_cast<std::size_t>(n) + 1, 0);
+  for (Index v = 0; v < n; ++v) off[v + 1] = off[v] + width(v);
+  std::vector<Index> identity(static_cast<std::size_t>(n));
+  for (Index v = 0; v < n; ++v) identity[v] = v;
+  Dense d{Eigen::MatrixXd::Zero(off[n], off[n]), Eigen::VectorXd::Zero(off[n])};
+  for (Index f = 0; f < graph.factors(); ++f) {
+    Index positions[2];
+    typename Graph::RowBlock rows[2];
+    typename Graph::Delta rhs;
+    const Index count = graph.whitenedRows(f, identity.data(), positions, rows, &rhs);
+    REQUIRE((count == 1 || count == 2));
+    for (Index i = 0; i < count; ++i) {
+      const Index v = positions[i];
+      d.eta.segment(off[v], width(v)) += rows[i].topRows(width(v)) * rhs;
+      for (Index j = 0; j < count; ++j) {
+        const Index u = positions[j];
+        d.lambda.block(off[v], off[u], width(v), width(u)) +=
+            rows[i].topRows(width(v)) * rows[j].topRows(width(u)).transpose();
+      }
+    }
+  }
+  return d;
+}
+
+template <class Model>
+void checkWhitenedRows(unsigned seed) {
+  for (int c = 0; c < 6; ++c) {
+    CAPTURE(c);
+    Harness<Model> h(seed + static_cast<unsigned>(c));
+    buildGraph(h, 10 + c, 4 + c);
+    CHECK(relativeError(fromWhitenedRows(h.graph), h.reference()) <= 1e-6);
+  }
+}
+
+TEST_CASE("whitenedRows multiply out to J^T Omega J and -J^T Omega e: Slam2D, Slam3D") {
+  checkWhitenedRows<Slam2D>(7201u);
+  checkWhitenedRows<Slam3D>(7301u);
+}
+
 template <class Model>
 void checkFullAssembly(unsigned seed) {
   for (int c = 0; c < 8; ++c) {

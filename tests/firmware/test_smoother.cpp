@@ -309,9 +309,10 @@ bool sameBits(const std::vector<double>& a, const std::vector<double>& b) {
 }
 
 template <class Model>
-Status feed(lslam::Smoother<Model>& s, const Step<Model>& step) {
+Status feed(lslam::Smoother<Model>& s, const Step<Model>& step,
+            lslam::UpdateResult* result = nullptr) {
   return s.update(step.variables.data(), static_cast<Index>(step.variables.size()),
-                  step.factors.data(), static_cast<Index>(step.factors.size()));
+                  step.factors.data(), static_cast<Index>(step.factors.size()), result);
 }
 
 bool allFinite(const std::vector<double>& v) {
@@ -546,6 +547,44 @@ TEST_CASE("urgent_iterations: every update converged within itself (2D landmarks
   checkConvergedOnline(stream2D(21, 60, 20), *smoother2);
   auto smoother3 = std::make_unique<SmootherPoses3D>(options);
   checkConvergedOnline(stream3D<PoseSlam3D>(23, 80, 0), *smoother3);
+}
+
+// With the default options a graph below converge_below_variables converges within each update:
+// the last update's estimate is at the optimum up to the relinearization threshold's share, and
+// nearer it than the same updates taken one step each.
+template <class Model, class S>
+void checkSmallGraphConverges(const Stream<Model>& stream, S& smoother, S& one_step) {
+  REQUIRE(static_cast<Index>(stream.initial.size()) < smoother.options().converge_below_variables);
+  int iterated = 0;
+  for (const Step<Model>& st : stream.steps) {
+    lslam::UpdateResult r;
+    REQUIRE(feed(smoother, st, &r) == Status::Ok);
+    REQUIRE(feed(one_step, st) == Status::Ok);
+    iterated += r.iterations > 0 ? 1 : 0;
+  }
+  const sim::ModelBatchResult reference = batch(stream.dataset, stream.initial);
+  REQUIRE(reference.converged);
+  const double excess = smoother.chi2() / reference.chi2 - 1.0;
+  const double one_step_excess = one_step.chi2() / reference.chi2 - 1.0;
+  MESSAGE(iterated << " of " << stream.steps.size() << " updates iterated; chi2 excess " << excess
+                   << ", one step per update " << one_step_excess);
+  CHECK(iterated > 0);
+  CHECK(excess >= -1e-9);
+  CHECK(excess <= 1e-4);
+  CHECK(excess < one_step_excess);
+}
+
+TEST_CASE("a graph below converge_below_variables converges within each update (defaults)") {
+  lslam::SolverOptions off = lslam::defaultSolverOptions<PoseSlam3D>();
+  off.converge_below_variables = 0;
+  auto smoother3 = std::make_unique<SmootherPoses3D>();
+  auto one_step3 = std::make_unique<SmootherPoses3D>(off);
+  checkSmallGraphConverges(stream3D<PoseSlam3D>(23, 80, 0), *smoother3, *one_step3);
+  lslam::SolverOptions off2 = lslam::defaultSolverOptions<Slam2D>();
+  off2.converge_below_variables = 0;
+  auto smoother2 = std::make_unique<Smoother2D>();
+  auto one_step2 = std::make_unique<Smoother2D>(off2);
+  checkSmallGraphConverges(stream2D(21, 60, 20), *smoother2, *one_step2);
 }
 
 // ---- Rejections ---------------------------------------------------------------------------------

@@ -42,6 +42,15 @@ using PoseSmoother = StaticSmoother<PoseSlam2D, P, 0, F, F * 12, B, 0>;
 
 using SmallSolver = PoseSmoother<400, 1200, 60000>;
 
+// The options these tests start from: the defaults, one update at a time. A graph below
+// converge_below_variables would relinearize and solve again inside each solve(), which the
+// per-update accounting of the policies here does not model (test_smoother tests that rule).
+SolverOptions policyOptions() {
+  SolverOptions options;
+  options.converge_below_variables = 0;
+  return options;
+}
+
 SE2 toSE2(const Pose2D& p) {
   return SE2(p.x, p.y, p.theta);
 }
@@ -145,7 +154,7 @@ void checkTracksBatch(const UpdatePaths& paths) {
     CAPTURE(seed);
     const Dataset2D d = syntheticWorld(200, seed);
     const std::vector<Step> steps = buildSteps(d, StepOrder::Online);
-    SolverOptions options;
+    SolverOptions options = policyOptions();
     options.relinearize_threshold = 1e-3;
     options.backsubstitution_tolerance = 1e-9;
     options.reorder_min_variables = 20;  // exercise reordering on small graphs too
@@ -214,7 +223,7 @@ TEST_CASE(
     CAPTURE(ahead);
     for (std::uint32_t seed = 50; seed < 54; ++seed) {
       CAPTURE(seed);
-      SolverOptions options;
+      SolverOptions options = policyOptions();
       options.reorder_min_variables = 20;
       options.prepare_ordering_ahead = ahead;
       Index variables = 0;
@@ -249,7 +258,7 @@ TEST_CASE(
 TEST_CASE(
     "an ordering is prepared ahead only once a full refactorization costs "
     "prepare_ordering_min_products") {
-  SolverOptions options;
+  SolverOptions options = policyOptions();
   options.reorder_min_variables = 20;
   options.prepare_ordering_min_products = 4000;
   int prepared = 0;
@@ -277,7 +286,7 @@ TEST_CASE(
 TEST_CASE(
     "every ordering is postordered and online updates keep it so: the solve walks the positions "
     "n-1, n-2, ..., 0 in turn") {
-  SolverOptions options;
+  SolverOptions options = policyOptions();
   options.reorder_min_variables = 20;
   options.reorder_path_columns = 30;
   int reorders = 0;
@@ -302,7 +311,7 @@ TEST_CASE(
   // Solving only every third update leaves such changes in place for the check.
   for (const bool top : {false, true}) {
     CAPTURE(top);
-    SolverOptions options;
+    SolverOptions options = policyOptions();
     options.reorder_min_variables = 20;
     options.reorder_affected_top = top;
     options.relinearize_threshold = 1e-3;
@@ -347,7 +356,7 @@ TEST_CASE("the rent-or-buy rule reorders exactly when the growth work passes its
     CAPTURE(ratio);
     for (std::uint32_t seed = 40; seed < 44; ++seed) {
       CAPTURE(seed);
-      SolverOptions options;
+      SolverOptions options = policyOptions();
       options.reorder_min_variables = 20;
       options.reorder_growth = 1e9;
       options.reorder_path_columns = 0;
@@ -394,7 +403,7 @@ TEST_CASE(
     int postponed = 0;
     for (std::uint32_t seed = 60; seed < 63; ++seed) {
       CAPTURE(seed);
-      SolverOptions options;
+      SolverOptions options = policyOptions();
       options.reorder_min_variables = 20;
       options.reorder_relinearized_share = 2.0;
       options.relinearize_urgent_threshold = 0.0;
@@ -468,7 +477,7 @@ TEST_CASE(
       CAPTURE(seed);
       const Dataset2D d = syntheticWorld(390, seed);
       const std::vector<Step> steps = buildSteps(d, StepOrder::Online);
-      SolverOptions options;
+      SolverOptions options = policyOptions();
       options.relinearize_partial_threshold = partial_threshold;
       options.solve_after_update = false;
       // A coarser solve visits fewer columns, so the next solves do not note every waiting
@@ -501,7 +510,7 @@ TEST_CASE("optimize() reaches the batch optimum") {
     CAPTURE(seed);
     const Dataset2D d = syntheticWorld(150, seed);
     const std::vector<Step> steps = buildSteps(d, StepOrder::Online);
-    SolverOptions options;
+    SolverOptions options = policyOptions();
     options.relinearize_threshold = 0.5;  // deliberately coarse: optimize() must fix it
     auto solver = std::make_unique<SmallSolver>(options);
     Estimate2D initial;
@@ -698,8 +707,8 @@ std::vector<BadCall> badCalls(VariableId n, const SE2& step) {
 TEST_CASE("every rejected input returns its status and leaves the solver bit-identical") {
   // Rejected in three states: before any ordering, with an ordering prepared for the next update,
   // and with a full refactorization's layout pending; both must survive the rejected calls.
-  auto solver = std::make_unique<SmallSolver>();
-  auto reference = std::make_unique<SmallSolver>();  // sees only the valid inputs
+  auto solver = std::make_unique<SmallSolver>(policyOptions());
+  auto reference = std::make_unique<SmallSolver>(policyOptions());  // sees only the valid inputs
   const SE2 step(1.0, 0.0, 0.1);
   auto feed = [&](Solver& s, VariableId id, UpdateResult* r = nullptr) {
     const Var p = Var::make(id, SE2(static_cast<double>(id), 0.0, 0.0));
@@ -745,7 +754,7 @@ TEST_CASE("every rejected input returns its status and leaves the solver bit-ide
   CHECK_FALSE(solver->factor().layoutPending());
   CHECK_FALSE(feedBoth().laid_out);
   // Capacity: a solver that is full rejects the next pose and keeps everything.
-  auto tiny = std::make_unique<PoseSmoother<5, 8, 200>>();
+  auto tiny = std::make_unique<PoseSmoother<5, 8, 200>>(policyOptions());
   for (VariableId id = 0; id < 5; ++id) REQUIRE(feed(*tiny, id) == Status::Ok);
   const Snapshot full = snapshot(*tiny);
   CHECK(feed(*tiny, 5) == Status::CapacityExhausted);
@@ -867,7 +876,7 @@ TEST_CASE(
       CAPTURE(seed);
       const Dataset2D d = syntheticWorld(160, seed);
       const std::vector<Step> steps = buildSteps(d, StepOrder::Online);
-      SolverOptions options;
+      SolverOptions options = policyOptions();
       options.reorder_min_variables = 20;
       options.row_updates = row_updates;
       options.reorder_burst_loop_closures = kBurst;
@@ -939,7 +948,7 @@ TEST_CASE("a pool small enough to need compactions gives the estimate of one tha
   for (std::uint32_t seed = 60; seed < 64; ++seed) {
     CAPTURE(seed);
     const Dataset2D d = syntheticWorld(300, seed);
-    SolverOptions options;
+    SolverOptions options = policyOptions();
     options.reorder_min_variables = 20;
     auto roomy = std::make_unique<SmallSolver>(options);
     auto tight = std::make_unique<TightSolver>(options);
@@ -1027,7 +1036,7 @@ LateWorld lateWorld(std::uint32_t seed) {
 }
 
 SolverOptions withoutBurstRule() {
-  SolverOptions o;
+  SolverOptions o = policyOptions();
   o.reorder_burst_loop_closures = 0;
   return o;
 }
@@ -1054,7 +1063,7 @@ TEST_CASE("a burst of loop closures is factorized in a fresh ordering that has t
     const SolverOptions no_burst_rule = withoutBurstRule();
     SolverOptions recomputing = no_burst_rule;
     recomputing.row_updates = false;  // stages each column once (a row update may stage it often)
-    auto with_rule = std::make_unique<SmallSolver>();
+    auto with_rule = std::make_unique<SmallSolver>(policyOptions());
     auto fallback = std::make_unique<TightSolver>(no_burst_rule);
     auto plain = std::make_unique<RoomySolver>(recomputing);
     std::vector<Estimate2D> initial(3);
@@ -1260,7 +1269,7 @@ TEST_CASE(
     for (std::uint32_t seed = 130; seed < 134; ++seed) {
       CAPTURE(seed);
       const Dataset2D d = syntheticWorld(60, seed);
-      SolverOptions options;
+      SolverOptions options = policyOptions();
       options.reorder_min_variables = 20;
       options.prepare_ordering_ahead = false;
       GuardedSolver<100, 400, 20000> g(options);
@@ -1280,7 +1289,7 @@ TEST_CASE(
       CAPTURE(min_variables);
       const Dataset2D d = syntheticWorld(40, 135);
       const std::vector<Step> steps = buildSteps(d, StepOrder::Online);
-      SolverOptions options;
+      SolverOptions options = policyOptions();
       options.reorder_min_variables = min_variables;
       options.prepare_ordering_ahead = false;
       GuardedSolver<100, 400, 20000> g(options);
@@ -1322,7 +1331,7 @@ TEST_CASE(
 TEST_CASE(
     "a factor kind outside PoseSlam2D's factors in a first update is rejected and changes "
     "nothing") {
-  auto solver = std::make_unique<SmallSolver>();
+  auto solver = std::make_unique<SmallSolver>(policyOptions());
   const Snapshot empty = snapshot(*solver);
   const Var poses[2] = {Var::make(0, SE2()), Var::make(1, SE2(1.0, 0.0, 0.0))};
   for (const std::uint8_t kind : {std::uint8_t{2}, std::uint8_t{255}}) {
@@ -1438,7 +1447,7 @@ TEST_CASE(
     for (std::uint32_t seed = 140; seed < 143; ++seed) {
       CAPTURE(seed);
       const PriorWorld w = priorWorld(120, seed, first, 7);
-      SolverOptions options;
+      SolverOptions options = policyOptions();
       options.reorder_min_variables = 20;
       auto solver = std::make_unique<SmallSolver>(options);
       Estimate2D initial;
@@ -1469,7 +1478,7 @@ TEST_CASE(
   for (std::uint32_t seed = 160; seed < 163; ++seed) {
     CAPTURE(seed);
     const PriorWorld w = priorWorld(90, seed, 40, 5);
-    SolverOptions options;
+    SolverOptions options = policyOptions();
     options.reorder_min_variables = 20;
     auto solver = std::make_unique<SmallSolver>(options);
     auto reference = std::make_unique<SmallSolver>(options);
@@ -1502,7 +1511,7 @@ TEST_CASE(
   for (std::uint32_t seed = 180; seed < 184; ++seed) {
     CAPTURE(seed);
     const PriorWorld w = priorWorld(60, seed, 1000, 1);  // no priors in the world itself
-    SolverOptions options;
+    SolverOptions options = policyOptions();
     options.reorder_min_variables = 20;
     auto solver = std::make_unique<SmallSolver>(options);
     Estimate2D initial;
@@ -1592,7 +1601,7 @@ TEST_CASE(
     int row_updates = 0;
     for (const bool rows : {true, false}) {
       CAPTURE(rows);
-      SolverOptions options;
+      SolverOptions options = policyOptions();
       options.row_updates = rows;
       options.reorder_min_variables = 20;
       auto solver = std::make_unique<SmallSolver>(options);

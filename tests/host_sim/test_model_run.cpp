@@ -197,6 +197,16 @@ TEST_CASE("pose graphs in file order, out of time order, agree with the batch so
       REQUIRE(run.anchor == pose(newest - 1));
       CHECK(run.landmarks == 0);
       CHECK(run.steps.size() == static_cast<std::size_t>(newest + 1));
+      // Step 1 adds the newest pose, step 2 the one before the anchor (not next to step 1's pose:
+      // a loop closure); from there each step adds the pose before the previous one by odometry.
+      // The last also holds every loop closure, between poses seen before.
+      CHECK(run.steps[0].kind == sim::StepKind::First);
+      CHECK(run.steps[1].kind == sim::StepKind::Odometry);
+      CHECK(run.steps[2].kind == sim::StepKind::LoopClosure);
+      for (std::size_t k = 3; k + 1 < run.steps.size(); ++k) {
+        CHECK(run.steps[k].kind == sim::StepKind::Odometry);
+      }
+      CHECK(run.steps.back().kind == sim::StepKind::LoopClosure);
 
       checkAgainstBatch(d, run, newest - 1);
     }
@@ -217,13 +227,13 @@ TEST_CASE("solverInformation: iSAM's information in g2o's error coordinates") {
     const ModelFactor f2 = factor(FactorKind::BetweenSE2, pose(0), pose(1), z2,
                                   randomInformation(rng, Eigen::Vector3d(5, 5, 5)), 1);
     CHECK(sim::solverInformation(g2o, f2) == f2.information);
-    const Eigen::MatrixXd info2 = sim::solverInformation(isam, f2);
+    const Eigen::Matrix3d info2 = sim::solverInformation(isam, f2);
     const Eigen::Vector3d xi(u(rng), u(rng), u(rng));
     const Eigen::Vector3d xj(3 * u(rng), 3 * u(rng), 3 * u(rng));
     const Eigen::Vector3d e_isam = sim::errorBetweenSE2Isam(xi, xj, z2);
     const Eigen::Vector3d e_g2o = sim::errorBetweenSE2G2o(xi, xj, z2);
-    CHECK(e_g2o.dot(info2 * e_g2o) ==
-          doctest::Approx(e_isam.dot(f2.information * e_isam)).epsilon(1e-12));
+    const Eigen::Matrix3d omega2 = f2.information;
+    CHECK(e_g2o.dot(info2 * e_g2o) == doctest::Approx(e_isam.dot(omega2 * e_isam)).epsilon(1e-12));
 
     // SE3: the same quadratic form to first order in the error (Euler angles against the
     // quaternion's vector part): relative difference of the order of the error.

@@ -382,7 +382,7 @@ void FactorizationDriver<Graph, Factor>::markAffectedColumns(const Index* positi
   }
 }
 
-// The pose graph, and the models of the generic solver.
+// Every model's graph and factor.
 template class FactorizationDriver<FactorGraph<Slam2D>, IncrementalCholesky<3, 2>>;
 template class FactorizationDriver<FactorGraph<Slam3D>, IncrementalCholesky<6, 3>>;
 template class FactorizationDriver<FactorGraph<PoseSlam2D>, IncrementalCholesky<3>>;

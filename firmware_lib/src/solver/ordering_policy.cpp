@@ -133,7 +133,7 @@ bool OrderingPolicy<Graph, Factor>::computeFreshOrdering(bool* prepared_overwrit
   return computeOrdering(a_.variable_at[o], a_.position_of[o]) == Status::Ok;
 }
 
-// The pose graph, and the models of the generic solver.
+// Every model's graph and factor.
 template class OrderingPolicy<FactorGraph<Slam2D>, IncrementalCholesky<3, 2>>;
 template class OrderingPolicy<FactorGraph<Slam3D>, IncrementalCholesky<6, 3>>;
 template class OrderingPolicy<FactorGraph<PoseSlam2D>, IncrementalCholesky<3>>;

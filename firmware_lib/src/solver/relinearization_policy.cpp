@@ -60,18 +60,22 @@ double RelinearizationPolicy<Graph, Factor>::movedBy(int kind, const Vector& del
 }
 
 // Per kind, the threshold is relinearize_threshold_of_kind, or relinearize_threshold where that is
-// 0. The partial bar is relinearize_partial_threshold, or the threshold where it is off (0) or
-// lower; never above relinearize_urgent_threshold, so that the candidate that made an update
-// urgent is always taken (above it, an urgent update could relinearize nothing and stay urgent).
+// 0. The urgent bar is relinearize_urgent_threshold, or the threshold in a graph below
+// converge_below_variables. The partial bar is relinearize_partial_threshold, or the threshold
+// where it is off (0) or lower; never above the urgent bar, so that the candidate that made an
+// update urgent is always taken (above it, an urgent update could relinearize nothing and stay
+// urgent).
 template <class Graph, class Factor>
 typename RelinearizationPolicy<Graph, Factor>::Bars RelinearizationPolicy<Graph, Factor>::bars()
     const {
   Bars result;
+  // A small graph converges within each update (SolverOptions::converge_below_variables).
+  const bool converge = graph_.variables() < options_.converge_below_variables;
   for (int kind = 0; kind < kKinds; ++kind) {
     RelinearizationBars& b = result.of[kind];
     const double of_kind = options_.relinearize_threshold_of_kind[kind];
     b.threshold = of_kind > 0.0 ? of_kind : options_.relinearize_threshold;
-    b.urgent = options_.relinearize_urgent_threshold;
+    b.urgent = converge ? b.threshold : options_.relinearize_urgent_threshold;
     const double partial = options_.relinearize_partial_threshold;
     b.partial = !(partial > 0.0) ? b.threshold : std::max(b.threshold, std::min(partial, b.urgent));
   }
@@ -205,7 +209,7 @@ void RelinearizationPolicy<Graph, Factor>::noteCandidates(const Index* visited, 
   }
 }
 
-// The pose graph, and the models of the generic solver.
+// Every model's graph and factor.
 template class RelinearizationPolicy<FactorGraph<Slam2D>, IncrementalCholesky<3, 2>>;
 template class RelinearizationPolicy<FactorGraph<Slam3D>, IncrementalCholesky<6, 3>>;
 template class RelinearizationPolicy<FactorGraph<PoseSlam2D>, IncrementalCholesky<3>>;

@@ -1,5 +1,6 @@
 #include "lslam/solver/smoother.h"
 
+#include <algorithm>
 #include <type_traits>
 
 #include "lslam/models/pose_slam_2d.h"
@@ -175,14 +176,14 @@ void Smoother<Model>::addInputs(const Variable* variables, Index num_variables,
   }
 }
 
-// See detail::planUpdate (update_steps.h), shared with the other façade.
+// See detail::planUpdate (update_steps.h).
 template <class Model>
 UpdatePlan Smoother<Model>::planUpdate(Index new_variables, bool drop_anchor) {
   return detail::planUpdate(graph_, ordering_, relinearization_, driver_, delta_, new_variables,
                             drop_anchor);
 }
 
-// See detail::refactorAndRestart (update_steps.h), shared with the other façade.
+// See detail::refactorAndRestart (update_steps.h).
 template <class Model>
 Status Smoother<Model>::refactor(Index new_variables, const UpdatePlan& plan, bool allow_reorder,
                                  UpdateResult& r) {
@@ -193,7 +194,12 @@ Status Smoother<Model>::refactor(Index new_variables, const UpdatePlan& plan, bo
 template <class Model>
 void Smoother<Model>::solve(bool full, UpdateResult* result) {
   backSubstitute(full, result);
-  for (Index i = 0; i < options_.urgent_iterations && relinearization_.urgent(); ++i) {
+  // A small graph converges within the update (SolverOptions::converge_below_variables).
+  const bool converge = graph_.variables() < options_.converge_below_variables;
+  const Index iterations = converge
+                               ? std::max(options_.urgent_iterations, options_.converge_iterations)
+                               : options_.urgent_iterations;
+  for (Index i = 0; i < iterations && relinearization_.urgent(); ++i) {
     UpdateResult step;
     // A failed pass changed nothing: the solution stands, the candidates wait.
     if (relinearizeCandidates(step) != Status::Ok) break;

@@ -56,10 +56,10 @@ struct ModelRun {
 // Runs `d` in options.order (file order: pose graphs only, else std::invalid_argument). The solver
 // anchors the first step's pose (step 0's) with a prior and has no FIX: a FIX of one other pose
 // only moves the gauge and is noted in gauge_note, a second fixed pose throws DatasetError at its
-// line. If the solver rejects a step, throws DatasetError at the
-// line of the step's first factor, naming the step, its pose, the lines of its factors and the
-// solver's status. A dataset beyond the host solver's capacity is such a rejection
-// (Status::CapacityExceeded). Whatever buildModelSteps throws.
+// line. If the solver rejects a step, throws DatasetError at the line of the step's first factor,
+// naming the step, its pose, the lines of its factors and the solver's status. A dataset beyond
+// the host solver's capacity is such a rejection (Status::CapacityExhausted). Whatever
+// buildModelSteps throws.
 ModelRun runModelIncremental(const ModelDataset& d, const IncrementalOptions& options);
 
 // The information of `f` in the solver's error coordinates: ModelFactor::information itself for
@@ -71,15 +71,15 @@ Eigen::MatrixXd solverInformation(const ModelDataset& d, const ModelFactor& f);
 
 // The solver's inputs for a variable (its value in the kind's parameters; an SE3 quaternion is
 // normalised, the solver takes unit ones) and for a factor of `d` (its measurement, and
-// solverInformation), as runModelIncremental hands them over. Compiled for Slam2D, Slam3D and
-// PoseSlam3D; std::invalid_argument for a kind the model has not.
+// solverInformation), as runModelIncremental hands them over. Compiled for Slam2D, Slam3D,
+// PoseSlam2D and PoseSlam3D; std::invalid_argument for a kind the model has not.
 template <class Model>
 ModelVariableInput<Model> modelVariableInput(const VariableKey& key, const Eigen::VectorXd& value);
 template <class Model>
 ModelFactorInput<Model> modelFactorInput(const ModelDataset& d, const ModelFactor& f);
 
 // The solver options the model `d` runs on start from (lslam::defaultSolverOptions of the model
-// runModelIncremental picks: Slam2D, Slam3D or PoseSlam3D).
+// runModelIncremental picks: Slam2D, Slam3D, PoseSlam2D or PoseSlam3D).
 SolverOptions defaultModelOptions(const ModelDataset& d);
 
 // Whether a factor or a vertex of `d` names a landmark.
