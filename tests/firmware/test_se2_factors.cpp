@@ -153,6 +153,36 @@ TEST_CASE("betweenErrorSE2 Jacobians match central differences") {
   CHECK(checked > kCases / 2);
 }
 
+TEST_CASE("linearizeBetweenSE2 is J^T Omega J and -J^T Omega e of the general products") {
+  std::mt19937 rng(kSeed + 4);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int i = 0; i < kCases; ++i) {
+    const SE2 xi = randomPose(rng, i);
+    const SE2 xj = randomPose(rng, i + 3);
+    const SE2 z = randomPose(rng, i + 6);
+    Mat3 a;  // a random symmetric positive definite information
+    for (int k = 0; k < 9; ++k) a(k / 3, k % 3) = u(rng);
+    const Mat3 omega = a * a.transpose() + 0.1 * Mat3::Identity();
+    CAPTURE(i);
+    Mat3 j_i;
+    Mat3 j_j;
+    const Vec3 e = betweenErrorSE2(xi, xj, z, &j_i, &j_j);
+    Mat3 ii;
+    Mat3 jj;
+    Mat3 ji;
+    Vec3 eta_i;
+    Vec3 eta_j;
+    CHECK(lslam::linearizeBetweenSE2(xi, xj, z, omega, &ii, &jj, &ji, &eta_i, &eta_j) == e);
+    const double scale = omega.norm() * (1.0 + j_i.norm() * j_i.norm());
+    CHECK(maxAbsDiff(ii, Mat3(j_i.transpose() * omega * j_i)) <= 1e-14 * scale);
+    CHECK(maxAbsDiff(jj, Mat3(j_j.transpose() * omega * j_j)) <= 1e-14 * scale);
+    CHECK(maxAbsDiff(ji, Mat3(j_j.transpose() * omega * j_i)) <= 1e-14 * scale);
+    const double scale_e = scale * (1.0 + e.norm());
+    CHECK(maxAbsDiff(eta_i, Vec3(-(j_i.transpose() * omega * e))) <= 1e-14 * scale_e);
+    CHECK(maxAbsDiff(eta_j, Vec3(-(j_j.transpose() * omega * e))) <= 1e-14 * scale_e);
+  }
+}
+
 TEST_CASE("priorErrorSE2 Jacobian matches central differences") {
   std::mt19937 rng(kSeed + 3);
   int checked = 0;

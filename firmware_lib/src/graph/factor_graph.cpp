@@ -2,6 +2,7 @@
 
 #include <Eigen/Cholesky>
 #include <cstring>
+#include <type_traits>
 
 #include "lslam/models/pose_slam_2d.h"
 #include "lslam/models/pose_slam_3d.h"
@@ -53,9 +54,20 @@ void linearizeUnary(const double* values, const double* information, const A& xa
   out.eta_a.noalias() = -(jt_omega * e);
 }
 
+// Whether factor kind F brings its own linearization (F::linearize, see se2_factors.h).
+template <class F, class = void>
+struct HasLinearize : std::false_type {};
+template <class F>
+struct HasLinearize<F, std::void_t<decltype(&F::linearize)>> : std::true_type {};
+
 template <class F, class A, class B>
 void linearizeBinary(const double* values, const double* information, const A& xa, const B& xb,
                      Share<F, A::kDof, B::kDof>& out) {
+  if constexpr (HasLinearize<F>::value) {
+    F::linearize(xa, xb, measurementAt<F>(values), informationAt<F>(information), &out.aa, &out.bb,
+                 &out.ba, &out.eta_a, &out.eta_b);
+    return;
+  }
   Matrix<F::kErrorDim, A::kDof> ja;
   Matrix<F::kErrorDim, B::kDof> jb;
   const Matrix<F::kErrorDim, 1> e = F::error(xa, xb, measurementAt<F>(values), &ja, &jb);
