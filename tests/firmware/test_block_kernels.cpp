@@ -337,36 +337,37 @@ void checkAvxReflections(std::mt19937& rng, const std::vector<Index>& rows,
     CHECK(std::equal(b_rows[m].data(), b_rows[m].data() + D, b_expected[m].data()));
 }
 
-// Several source columns at once (a supernode, D = 3 only): each target block takes their
-// products in column order, each column's multiplier its own block at `first` (negated,
-// transposed), as the same number of single-column passes with that multiplier would give it.
+// Several source columns at once (a supernode): each target block takes their products in column
+// order, each column's multiplier its own block at `first` (negated, transposed), as the same
+// number of single-column passes with that multiplier would give it.
+template <int D>
 void checkSupernodeProducts(std::mt19937& rng, const std::vector<Index>& rows,
                             const std::vector<Index>& target_rows, Index first, Index size, int n,
-                            std::vector<Eigen::Matrix3d>& target) {
+                            std::vector<Eigen::Matrix<double, D, D>>& target) {
+  using Block = Eigen::Matrix<double, D, D>;
   const Index width = 1 + n % 8;
-  std::vector<std::vector<Eigen::Matrix3d>> columns(width,
-                                                    std::vector<Eigen::Matrix3d>(rows.size()));
-  std::vector<const Eigen::Matrix3d*> column_of(width);
+  std::vector<std::vector<Block>> columns(width, std::vector<Block>(rows.size()));
+  std::vector<const Block*> column_of(width);
   for (Index m = 0; m < width; ++m) {
-    for (auto& b : columns[m]) b = randomBlock<3>(rng);
+    for (auto& b : columns[m]) b = randomBlock<D>(rng);
     column_of[m] = columns[m].data();
   }
-  std::vector<Eigen::Matrix3d> multi_expected = target;
+  std::vector<Block> multi_expected = target;
   for (Index m = 0; m < width; ++m) {
-    const Eigen::Matrix3d s_m = -columns[m][first].transpose();
+    const Block s_m = -columns[m][first].transpose();
     for (Index b = first; b < size; ++b) {
       const Index p = static_cast<Index>(
           std::lower_bound(target_rows.begin(), target_rows.end(), rows[b]) - target_rows.begin());
-      lslam::detail::addBlockProduct<3>(multi_expected[p], columns[m][b], s_m);
+      lslam::detail::addBlockProduct<D>(multi_expected[p], columns[m][b], s_m);
     }
   }
   lslam::detail::subtractOuterProductsOfColumnsAvx(column_of.data(), width, rows.data(), first,
                                                    size, target_rows.data(), target.data());
-  for (std::size_t p = 0; p < target.size(); ++p) CHECK(sameBits<3>(target[p], multi_expected[p]));
+  for (std::size_t p = 0; p < target.size(); ++p) CHECK(sameBits<D>(target[p], multi_expected[p]));
 }
 
-// The AVX block products (one source column, and at D = 3 several) and reflections against the
-// portable forms, bit for bit, and the block products against the dense product.
+// The AVX block products (one source column, and several) and reflections against the portable
+// forms, bit for bit, and the block products against the dense product.
 template <int D>
 void checkAvxKernels() {
   using Block = Eigen::Matrix<double, D, D>;
@@ -405,7 +406,7 @@ void checkAvxKernels() {
       const Block dense = original[p] + blocks[b] * s;
       CHECK((target[p] - dense).cwiseAbs().maxCoeff() < 1e-12);
     }
-    if constexpr (D == 3) checkSupernodeProducts(rng, rows, target_rows, first, size, n, target);
+    checkSupernodeProducts<D>(rng, rows, target_rows, first, size, n, target);
     checkAvxReflections<D, 1>(rng, rows, blocks, target_rows.size(), n);
     checkAvxReflections<D, 2>(rng, rows, blocks, target_rows.size(), n);
   }

@@ -604,6 +604,38 @@ LSLAM_TARGET_AVX_FMA void multiplyByTransposedLowerAvx(Mat6* blocks, Index count
   }
 }
 
+// The rows of Lanes (0-3 or 4-5) of the 6 x 6 blocks: t[c] (+ or -)= sum_k b(:, k) m(k, c), each
+// product fused in order k = 0 .. 5 (as addBlockProduct), with m(k, c) at mult[k step_k + c
+// step_c]. Those rows of b are held in registers whole: loaded once, where column by column the
+// stores to t (which may alias b as far as the compiler knows) would reload them each time.
+template <class Lanes, bool kSubtract>
+LSLAM_TARGET_AVX_FMA inline void addProductsOnRows(const double* b_data, const double* mult,
+                                                   int step_k, int step_c, typename Lanes::V* t) {
+  typename Lanes::V b[6];
+#pragma GCC unroll 6
+  for (int k = 0; k < 6; ++k) b[k] = Lanes::load(b_data + 6 * k + Lanes::kFirstRow);
+#pragma GCC unroll 6
+  for (int c = 0; c < 6; ++c) {
+#pragma GCC unroll 6
+    for (int k = 0; k < 6; ++k) {
+      const typename Lanes::V m = Lanes::broadcast(mult + k * step_k + c * step_c);
+      t[c] = kSubtract ? Lanes::fnmadd(b[k], m, t[c]) : Lanes::fmadd(b[k], m, t[c]);
+    }
+  }
+}
+
+template <class Lanes>
+LSLAM_TARGET_AVX_FMA inline void loadRows(const double* block, typename Lanes::V* t) {
+#pragma GCC unroll 6
+  for (int c = 0; c < 6; ++c) t[c] = Lanes::load(block + 6 * c + Lanes::kFirstRow);
+}
+
+template <class Lanes>
+LSLAM_TARGET_AVX_FMA inline void storeRows(double* block, const typename Lanes::V* t) {
+#pragma GCC unroll 6
+  for (int c = 0; c < 6; ++c) Lanes::store(block + 6 * c + Lanes::kFirstRow, t[c]);
+}
+
 LSLAM_TARGET_AVX_FMA void addBlockProductsAvx(const Mat6* blocks, const Index* rows, Index first,
                                               Index size, const Mat6& s, const Index* target_rows,
                                               Mat6* target) {
@@ -611,21 +643,43 @@ LSLAM_TARGET_AVX_FMA void addBlockProductsAvx(const Mat6* blocks, const Index* r
   for (Index b = first; b < size; ++b) {
     while (target_rows[p] < rows[b]) ++p;
     LSLAM_DEBUG_ASSERT(target_rows[p] == rows[b]);
-    const double* b_data = blocks[b].data();
     double* t_data = target[p].data();
-    // Column c of t + b s, each product fused in order k = 0 .. 5 (as addBlockProduct).
-#pragma GCC unroll 6
-    for (int c = 0; c < 6; ++c) {
-      __m256d t = loadTop(t_data, c);
-      __m128d u = loadBottom(t_data, c);
-#pragma GCC unroll 6
-      for (int k = 0; k < 6; ++k) {
-        t = _mm256_fmadd_pd(loadTop(b_data, k), _mm256_broadcast_sd(&s(k, c)), t);
-        u = _mm_fmadd_pd(loadBottom(b_data, k), _mm_loaddup_pd(&s(k, c)), u);
-      }
-      _mm256_storeu_pd(t_data + 6 * c, t);
-      _mm_storeu_pd(t_data + 6 * c + 4, u);
+    // t + b s: s(k, c) at s.data()[k + 6 c].
+    __m256d top[6];
+    loadRows<Lanes4>(t_data, top);
+    addProductsOnRows<Lanes4, false>(blocks[b].data(), s.data(), 1, 6, top);
+    __m128d bottom[6];
+    loadRows<Lanes2>(t_data, bottom);
+    addProductsOnRows<Lanes2, false>(blocks[b].data(), s.data(), 1, 6, bottom);
+    storeRows<Lanes4>(t_data, top);
+    storeRows<Lanes2>(t_data, bottom);
+  }
+}
+
+// As addBlockProductsAvx above, for every column of the supernode before the target block is
+// stored: each half of the target stays in registers across the columns.
+LSLAM_TARGET_AVX_FMA void subtractOuterProductsOfColumnsAvx(const Mat6* const* columns,
+                                                            Index num_columns, const Index* rows,
+                                                            Index first, Index size,
+                                                            const Index* target_rows,
+                                                            Mat6* target) {
+  Index p = 0;
+  for (Index b = first; b < size; ++b) {
+    while (target_rows[p] < rows[b]) ++p;
+    LSLAM_DEBUG_ASSERT(target_rows[p] == rows[b]);
+    double* t_data = target[p].data();
+    __m256d top[6];
+    __m128d bottom[6];
+    loadRows<Lanes4>(t_data, top);
+    loadRows<Lanes2>(t_data, bottom);
+    // t - b l^T: l(c, k) at l.data()[6 k + c].
+    for (Index m = 0; m < num_columns; ++m) {
+      const double* l = columns[m][first].data();
+      addProductsOnRows<Lanes4, true>(columns[m][b].data(), l, 6, 1, top);
+      addProductsOnRows<Lanes2, true>(columns[m][b].data(), l, 6, 1, bottom);
     }
+    storeRows<Lanes4>(t_data, top);
+    storeRows<Lanes2>(t_data, bottom);
   }
 }
 

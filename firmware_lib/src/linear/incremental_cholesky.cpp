@@ -154,7 +154,7 @@ Status IncrementalCholesky<S...>::factorize(const InformationSource<S...>& sourc
     }
   }
   bool by_supernodes = false;
-  if constexpr (kUniform && D == 3) {
+  if constexpr (kUniform && detail::kAvxForms<D>) {
     by_supernodes = full_ && detail::cpuHasAvxFma();
     if (by_supernodes) {
       const Status s = factorizeBySupernodes();

@@ -1,4 +1,5 @@
-// The full factorization by supernodes (on hosts with the AVX kernels; see factorize()).
+// The full factorization by supernodes (block sizes 3 and 6, on hosts with the AVX kernels; see
+// factorize()).
 //
 // Right-looking, column by column, a column's update of each later column loads and stores every
 // target block once per source column. Across the dense top of a large factor the targets no
@@ -61,7 +62,7 @@ Index IncrementalCholesky<S...>::supernodeEnd(Index i) const {
 // path, stays lean). A later column t = m + a holds exactly m's rows from a on.
 template <int... S>
 void IncrementalCholesky<S...>::scatterWithinSupernode(Index m, Index last) {
-  if constexpr (D == 3) {
+  if constexpr (detail::kAvxForms<D>) {
     const Index* rows = a_.rows + a_.staged_start[m];
     const Block* blocks = a_.blocks + a_.staged_start[m];
     const Index size = a_.staged_count[m];
@@ -74,7 +75,7 @@ void IncrementalCholesky<S...>::scatterWithinSupernode(Index m, Index last) {
       stats_.block_products += size - a;
     }
   } else {
-    LSLAM_ASSERT(false);  // only the D = 3 factor has the AVX kernels
+    LSLAM_ASSERT(false);  // only the factors of D = 3 and 6 have the AVX kernels
     static_cast<void>(m);
     static_cast<void>(last);
   }
@@ -83,7 +84,7 @@ void IncrementalCholesky<S...>::scatterWithinSupernode(Index m, Index last) {
 // The chain first .. last updates the columns of struct(last) together (see the top).
 template <int... S>
 void IncrementalCholesky<S...>::scatterFromSupernode(Index first, Index last) {
-  if constexpr (D == 3) {
+  if constexpr (detail::kAvxForms<D>) {
     const Index width = last - first + 1;
     const Index* out_rows = a_.rows + a_.staged_start[last] + 1;
     const Index num_out = a_.staged_count[last] - 1;
@@ -108,7 +109,7 @@ void IncrementalCholesky<S...>::scatterFromSupernode(Index first, Index last) {
                                                 target);
     }
   } else {
-    LSLAM_ASSERT(false);  // only the D = 3 factor has the AVX kernels
+    LSLAM_ASSERT(false);  // only the factors of D = 3 and 6 have the AVX kernels
     static_cast<void>(first);
     static_cast<void>(last);
   }

@@ -307,6 +307,10 @@ bool solveColumnAvx(const Vec6& d, const Mat6* blocks, const Index* rows, Index 
 void multiplyByTransposedLowerAvx(Mat6* blocks, Index count, const Mat6& l);
 void addBlockProductsAvx(const Mat6* blocks, const Index* rows, Index first, Index size,
                          const Mat6& s, const Index* target_rows, Mat6* target);
+// subtractOuterProductsOfColumnsAvx (below) at D = 6.
+void subtractOuterProductsOfColumnsAvx(const Mat6* const* columns, Index num_columns,
+                                       const Index* rows, Index first, Index size,
+                                       const Index* target_rows, Mat6* target);
 #endif
 
 // multiplyByTransposedLower<D>(blocks[b], l) for b in [0, count), through the AVX2/FMA form on
