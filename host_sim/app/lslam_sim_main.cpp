@@ -219,12 +219,6 @@ void writeModelEstimate(const std::string& path, const ModelDataset& d, const Mo
 
 // Any dataset, through Smoother<Model> of its model.
 int runModel(const RunArgs& args, const ModelDataset& d) {
-  if (args.order != StepOrder::Online && hasLandmarks(d)) {
-    std::fprintf(stderr,
-                 "lslam-sim: %s: --order file is for pose graphs; this dataset has landmarks\n",
-                 args.dataset.c_str());
-    return 1;
-  }
   if (d.vertices.empty() && d.factors.empty()) {
     std::fprintf(stderr, "lslam-sim: %s: no poses/edges to run\n", args.dataset.c_str());
     return 1;

@@ -109,7 +109,10 @@ std::string streamHeader(const ModelDataset& d, const std::string& source_name,
                          const std::string& name_space) {
   checkIdentifier(name_space);
   if (!isPoseGraph2D(d)) throw std::invalid_argument("streamHeader: not a 2D pose graph");
-  for (const ModelFactor& f : d.factors) (void)(id(f.first.id) + id(f.second.id));  // 32 bits
+  for (const ModelFactor& f : d.factors) {  // ids of 32 bits, checked before the run
+    id(f.first.id);
+    id(f.second.id);
+  }
   const std::vector<ModelStep> steps = buildModelSteps(d);
   if (steps.empty()) throw std::invalid_argument("streamHeader: the dataset has no pose");
   IncrementalOptions options;

@@ -69,8 +69,7 @@ template <class Graph, class Factor>
 typename RelinearizationPolicy<Graph, Factor>::Bars RelinearizationPolicy<Graph, Factor>::bars()
     const {
   Bars result;
-  // A small graph converges within each update (SolverOptions::converge_below_variables).
-  const bool converge = graph_.variables() < options_.converge_below_variables;
+  const bool converge = convergesWithinUpdates();
   for (int kind = 0; kind < kKinds; ++kind) {
     RelinearizationBars& b = result.of[kind];
     const double of_kind = options_.relinearize_threshold_of_kind[kind];
@@ -80,6 +79,18 @@ typename RelinearizationPolicy<Graph, Factor>::Bars RelinearizationPolicy<Graph,
     b.partial = !(partial > 0.0) ? b.threshold : std::max(b.threshold, std::min(partial, b.urgent));
   }
   return result;
+}
+
+template <class Graph, class Factor>
+bool RelinearizationPolicy<Graph, Factor>::convergesWithinUpdates() const {
+  return graph_.variables() < options_.converge_below_variables;
+}
+
+template <class Graph, class Factor>
+Index RelinearizationPolicy<Graph, Factor>::iterationsWithinSolve() const {
+  return convergesWithinUpdates()
+             ? std::max(options_.urgent_iterations, options_.converge_iterations)
+             : options_.urgent_iterations;
 }
 
 template <class Graph, class Factor>

@@ -1,6 +1,5 @@
 #include "lslam/solver/smoother.h"
 
-#include <algorithm>
 #include <type_traits>
 
 #include "lslam/models/pose_slam_2d.h"
@@ -194,11 +193,7 @@ Status Smoother<Model>::refactor(Index new_variables, const UpdatePlan& plan, bo
 template <class Model>
 void Smoother<Model>::solve(bool full, UpdateResult* result) {
   backSubstitute(full, result);
-  // A small graph converges within the update (SolverOptions::converge_below_variables).
-  const bool converge = graph_.variables() < options_.converge_below_variables;
-  const Index iterations = converge
-                               ? std::max(options_.urgent_iterations, options_.converge_iterations)
-                               : options_.urgent_iterations;
+  const Index iterations = relinearization_.iterationsWithinSolve();
   for (Index i = 0; i < iterations && relinearization_.urgent(); ++i) {
     UpdateResult step;
     // A failed pass changed nothing: the solution stands, the candidates wait.

@@ -56,6 +56,10 @@ class RelinearizationPolicy {
   bool due(bool reorder_now) const;
   // Whether a waiting candidate passed the urgent bar.
   bool urgent() const { return urgent_; }
+  // How many relinearize-and-solve passes a solve may add while a candidate is urgent:
+  // urgent_iterations, or at least converge_iterations in a graph below converge_below_variables
+  // (SolverOptions), where every candidate is urgent.
+  Index iterationsWithinSolve() const;
   // Whether the partial bar leaves candidates waiting that a full refactorization takes along.
   bool partialLeavesWaiting() const;
   // Stages the candidates in `range` (their points moved to lin (+) delta) and lists them in
@@ -94,6 +98,8 @@ class RelinearizationPolicy {
     RelinearizationBars of[kKinds];
   };
   Bars bars() const;
+  // Whether the graph is below converge_below_variables (SolverOptions).
+  bool convergesWithinUpdates() const;
   int kindOf(Index v) const;
   // How far a variable of `kind` moved from its linearization point (max-norm over its size).
   double movedBy(int kind, const Vector& delta) const;
