@@ -3,7 +3,9 @@
 //
 //   lslam-sim run DATASET [--order online|file] [--solve-every N] [--json] [--csv STEPS.csv]
 //                         [--out ESTIMATE.g2o] [--report REPORT.json]
+//   lslam-sim simulate WORLD OUT.g2o [--steps N] [--seed S] [parameters]
 //   lslam-sim generate OUT.g2o [--poses N] [--seed S]
+//   lslam-sim --help | simulate --help
 #include <sys/resource.h>
 
 #include <algorithm>
@@ -23,26 +25,65 @@
 #include "host_sim/model_dataset_io.h"
 #include "host_sim/model_run.h"
 #include "host_sim/synthetic.h"
+#include "host_sim/worlds.h"
 
 namespace {
 
 using namespace lslam::sim;
 
+constexpr const char* kUsage =
+    "usage: lslam-sim run DATASET [--order online|file] [--solve-every N] [--json]\n"
+    "                 [--csv STEPS.csv] [--out ESTIMATE.g2o] [--report REPORT.json]\n"
+    "                 [--relinearize-threshold T] [--relinearize-skip N]\n"
+    "                 [--relinearize-urgent T] [--relinearize-partial T]\n"
+    "                 [--urgent-iterations N]\n"
+    "                 [--backsub-tolerance T]\n"
+    "                 [--reorder-growth G] [--reorder-excess R]\n"
+    "                 [--reorder-path COLUMNS] [--reorder-burst LOOP_CLOSURES]\n"
+    "                 [--reorder-relinearized SHARE] [--reorder-refresh G]\n"
+    "                 [--relinearize-full-cost RATIO] [--order-in-one-update]\n"
+    "                 [--prepare-min-products N]\n"
+    "                 [--reorder-top] [--no-row-updates]\n"
+    "       lslam-sim simulate WORLD OUT.g2o [--steps N] [--seed S] [parameters]\n"
+    "                 (WORLD: grid2d, sphere3d, garage3d, points3d; lslam-sim simulate --help)\n"
+    "       lslam-sim generate OUT.g2o [--poses N] [--seed S]   (simulate grid2d, no landmarks)\n";
+
+constexpr const char* kSimulateHelp =
+    "lslam-sim simulate WORLD OUT.g2o [options]\n"
+    "  Writes a noisy g2o dataset to OUT.g2o and its ground truth (the true poses and landmarks "
+    "as\n"
+    "  vertices) to OUT.truth.g2o. Deterministic for a seed.\n"
+    "worlds (default steps):\n"
+    "  grid2d    Manhattan grid, point landmarks seen within a sensor range (1000)\n"
+    "  sphere3d  rings of latitude on a sphere, a loop closure one ring back per pose (2500)\n"
+    "  garage3d  rectangular floors joined by ramps, driven up and down again (1600)\n"
+    "  points3d  laps of a wavy circle observing 3D point landmarks within range (1000)\n"
+    "options (defaults in brackets; [world] where a world differs):\n"
+    "  --steps N                 poses (>= 2)\n"
+    "  --seed S                  random seed [1]\n"
+    "  --sigma-translation M     odometry and loop-closure noise per axis, m [0.05]\n"
+    "  --sigma-rotation R        rotation noise, rad (3D: per axis) [0.01]\n"
+    "  --sigma-landmark M        landmark position noise per axis, m [0.05]\n"
+    "  --sigma-range M           range noise, m [0.05]\n"
+    "  --sigma-bearing R         bearing noise, rad [0.01]\n"
+    "  --loop-probability P      chance a pose with candidates closes loops\n"
+    "                            [0.5; sphere3d 1; garage3d 0.8; points3d 0.3]\n"
+    "  --max-loops N             loop closures per pose at most [2; sphere3d 1]\n"
+    "  --loop-radius M           candidate distance, m (grid2d, garage3d) [1]\n"
+    "  --loop-separation N       candidates at least N poses back (grid2d, garage3d) [10]\n"
+    "  --outlier-rate P          chance a pose gets one wrong loop closure [0]\n"
+    "  --landmarks N             landmarks scattered (grid2d, points3d) [200; points3d 60]\n"
+    "  --sensor-range M          landmarks observed within, m [1.5; points3d 4]\n"
+    "  --max-observations N      nearest landmarks observed per pose at most [3]\n"
+    "  --landmark-measurement K  grid2d: position (EDGE_SE2_XY) or range-bearing\n"
+    "                            (EDGE_SE2_RANGE_BEARING) [position]\n"
+    "  --grid-size N             grid2d: intersections per side [10]\n"
+    "  --turn-probability P      grid2d: chance to turn at an intersection [0.3]\n"
+    "  --radius M                sphere3d, points3d: radius, m [10]\n"
+    "  --floors N                garage3d: floors [4]\n";
+
 int usage() {
-  std::fprintf(stderr,
-               "usage: lslam-sim run DATASET [--order online|file] [--solve-every N] [--json]\n"
-               "                 [--csv STEPS.csv] [--out ESTIMATE.g2o] [--report REPORT.json]\n"
-               "                 [--relinearize-threshold T] [--relinearize-skip N]\n"
-               "                 [--relinearize-urgent T] [--relinearize-partial T]\n"
-               "                 [--urgent-iterations N]\n"
-               "                 [--backsub-tolerance T]\n"
-               "                 [--reorder-growth G] [--reorder-excess R]\n"
-               "                 [--reorder-path COLUMNS] [--reorder-burst LOOP_CLOSURES]\n"
-               "                 [--reorder-relinearized SHARE] [--reorder-refresh G]\n"
-               "                 [--relinearize-full-cost RATIO] [--order-in-one-update]\n"
-               "                 [--prepare-min-products N]\n"
-               "                 [--reorder-top] [--no-row-updates]\n"
-               "       lslam-sim generate OUT.g2o [--poses N] [--seed S]\n");
+  std::fputs(kUsage, stderr);
   return 2;
 }
 
@@ -267,6 +308,43 @@ int generate(const GenerateArgs& args) {
   return 0;
 }
 
+// OUT.g2o -> OUT.truth.g2o (any other name: NAME.truth.g2o).
+std::string truthPath(const std::string& out) {
+  const std::string ext = ".g2o";
+  const bool g2o =
+      out.size() > ext.size() && out.compare(out.size() - ext.size(), ext.size(), ext) == 0;
+  return (g2o ? out.substr(0, out.size() - ext.size()) : out) + ".truth.g2o";
+}
+
+int simulate(const SimulateArgs& args) {
+  const SimulatedWorld world = simulateWorld(args.world, args.options);
+  const std::string truth = truthPath(args.out);
+  writeModelG2oFile(args.out, world.dataset);
+  writeModelG2oFile(truth, world.truth);
+  std::size_t loops = 0;
+  std::size_t observations = 0;
+  for (const ModelFactor& f : world.dataset.factors) {
+    if (f.second.role == VariableRole::Landmark) {
+      ++observations;
+    } else if (f.second.id != f.first.id + 1) {
+      ++loops;
+    }
+  }
+  const std::size_t landmarks =
+      world.truth.vertices.size() - static_cast<std::size_t>(args.options.steps);
+  std::printf(
+      "wrote %s: %s, %d poses, %zu landmarks, %zu measurements (%zu loop closures, %zu of "
+      "them wrong; %zu landmark observations)\n",
+      args.out.c_str(), worldKindName(args.world), args.options.steps, landmarks,
+      world.dataset.factors.size(), loops, world.outliers.size(), observations);
+  std::printf("wrote %s: the ground truth\n", truth.c_str());
+  return 0;
+}
+
+bool isHelp(const std::string& a) {
+  return a == "--help" || a == "-h" || a == "help";
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -278,6 +356,19 @@ int main(int argc, char** argv) {
       RunArgs args;
       if (const auto error = parseRunArgs(rest, args)) return usageError(*error);
       return run(rest, args);
+    }
+    if (isHelp(command)) {
+      std::fputs(kUsage, stdout);
+      return 0;
+    }
+    if (command == "simulate") {
+      if (!rest.empty() && isHelp(rest.front())) {
+        std::fputs(kSimulateHelp, stdout);
+        return 0;
+      }
+      SimulateArgs args;
+      if (const auto error = parseSimulateArgs(rest, args)) return usageError(*error);
+      return simulate(args);
     }
     if (command == "generate") {
       GenerateArgs args;

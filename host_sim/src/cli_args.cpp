@@ -114,13 +114,26 @@ Option integer(const char* name, Int& target, std::int64_t min, const char* expe
           }};
 }
 
-Option real(const char* name, double& target) {
-  return {name, true, [&target](const std::string& option, const std::string& value) -> Error {
-            const auto x = parseRealArg(value, 0.0, std::numeric_limits<double>::max());
-            if (!x) return invalidValue(option, value, "a finite number >= 0");
+// A finite number in [min, max] (excluding min itself if `open_min`).
+Option real(const char* name, double& target, double min = 0.0,
+            double max = std::numeric_limits<double>::max(),
+            const char* expected = "a finite number >= 0", bool open_min = false) {
+  return {name, true,
+          [&target, min, max, expected, open_min](const std::string& option,
+                                                  const std::string& value) -> Error {
+            const auto x = parseRealArg(value, min, max);
+            if (!x || (open_min && *x == min)) return invalidValue(option, value, expected);
             target = *x;
             return std::nullopt;
           }};
+}
+
+Option positiveReal(const char* name, double& target) {
+  return real(name, target, 0.0, std::numeric_limits<double>::max(), "a finite number > 0", true);
+}
+
+Option fraction(const char* name, double& target) {
+  return real(name, target, 0.0, 1.0, "a number in [0, 1]");
 }
 
 // The arguments of one command: options from `options`, each at most once, and exactly one
@@ -209,6 +222,53 @@ std::optional<std::string> parseGenerateArgs(const std::vector<std::string>& arg
       integer("--seed", args.options.seed, 0, "an integer in 0..4294967295"),
   };
   return parseCommand(argv, options, "OUT.g2o", args.out);
+}
+
+std::optional<std::string> parseSimulateArgs(const std::vector<std::string>& argv,
+                                             SimulateArgs& args) {
+  if (argv.empty() || argv[0].empty() || argv[0][0] == '-') {
+    return std::string("missing WORLD (grid2d, sphere3d, garage3d or points3d)");
+  }
+  const auto kind = parseWorldKind(argv[0]);
+  if (!kind) {
+    return "unknown world " + jsonString(argv[0]) +
+           " (expected grid2d, sphere3d, garage3d or points3d)";
+  }
+  args.world = *kind;
+  WorldOptions& o = args.options;
+  o = defaultWorldOptions(*kind);
+  const std::vector<Option> options = {
+      integer("--steps", o.steps, 2, "an integer >= 2"),
+      integer("--seed", o.seed, 0, "an integer in 0..4294967295"),
+      positiveReal("--sigma-translation", o.sigma_translation),
+      positiveReal("--sigma-rotation", o.sigma_rotation),
+      positiveReal("--sigma-landmark", o.sigma_landmark),
+      positiveReal("--sigma-range", o.sigma_range),
+      positiveReal("--sigma-bearing", o.sigma_bearing),
+      fraction("--loop-probability", o.loop_probability),
+      integer("--max-loops", o.max_loops_per_pose, 0, "an integer >= 0"),
+      real("--loop-radius", o.loop_radius),
+      integer("--loop-separation", o.min_loop_separation, 2, "an integer >= 2"),
+      fraction("--outlier-rate", o.outlier_rate),
+      integer("--landmarks", o.landmarks, 0, "an integer >= 0"),
+      real("--sensor-range", o.sensor_range),
+      integer("--max-observations", o.max_observations_per_pose, 0, "an integer >= 0"),
+      {"--landmark-measurement", true,
+       [&o](const std::string& option, const std::string& value) -> Error {
+         if (value != "position" && value != "range-bearing") {
+           return invalidValue(option, value, "position or range-bearing");
+         }
+         o.landmark_measurement = value == "position" ? LandmarkMeasurement::Position
+                                                      : LandmarkMeasurement::RangeBearing;
+         return std::nullopt;
+       }},
+      integer("--grid-size", o.grid_size, 2, "an integer >= 2"),
+      fraction("--turn-probability", o.turn_probability),
+      positiveReal("--radius", o.radius),
+      integer("--floors", o.floors, 1, "an integer >= 1"),
+  };
+  const std::vector<std::string> rest(argv.begin() + 1, argv.end());
+  return parseCommand(rest, options, "OUT.g2o", args.out);
 }
 
 }  // namespace lslam::sim

@@ -1,5 +1,6 @@
 #include "host_sim/model_run.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -465,9 +466,13 @@ ModelRun runModelIncremental(const ModelDataset& d, const IncrementalOptions& op
 }
 
 SolverOptions defaultModelOptions(const ModelDataset& d) {
-  return withModelOf(d, [](auto* model, auto*) {
+  const SolverOptions options = withModelOf(d, [](auto* model, auto*) {
     return defaultSolverOptions<std::remove_pointer_t<decltype(model)>>();
   });
+  const bool range_bearing =
+      std::any_of(d.factors.begin(), d.factors.end(),
+                  [](const ModelFactor& f) { return f.kind == FactorKind::RangeBearing2; });
+  return range_bearing ? withRangeBearingObservations(options) : options;
 }
 
 }  // namespace lslam::sim

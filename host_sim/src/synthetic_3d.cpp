@@ -11,46 +11,15 @@
 #include <vector>
 
 #include "host_sim/model_chi2.h"
-#include "portable_random.h"
+#include "world_draft.h"
+#include "world_measurements.h"
 
 namespace lslam::sim {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
-using Random = detail::PortableRandom;
-
-// sigma times three standard normal draws, x then y then z.
-Eigen::Vector3d normal3(Random& random, double sigma) {
-  const double x = random.normal();
-  const double y = random.normal();
-  const double z = random.normal();
-  return sigma * Eigen::Vector3d(x, y, z);
-}
-
-struct Pose {
-  Eigen::Quaterniond q;
-  Eigen::Vector3d t;
-};
-
-Pose relative(const Pose& a, const Pose& b) {
-  const Eigen::Quaterniond ai = a.q.conjugate();
-  return {(ai * b.q).normalized(), ai * (b.t - a.t)};
-}
-
-// exp of a small rotation vector.
-Eigen::Quaterniond rotationOf(const Eigen::Vector3d& r) {
-  const double angle = r.norm();
-  if (angle == 0.0) return Eigen::Quaterniond::Identity();
-  return Eigen::Quaterniond(Eigen::AngleAxisd(angle, r / angle));
-}
-
-Eigen::VectorXd poseParameters(const Pose& p) {
-  Eigen::VectorXd v(7);
-  v << p.t, p.q.x(), p.q.y(), p.q.z(), p.q.w();
-  return v;
-}
+using detail::kPi;
+using detail::Pose3;
 
 void checkOptions(const Synthetic3DOptions& o) {
   const auto probability = [](double p) { return p >= 0.0 && p <= 1.0; };
@@ -63,7 +32,7 @@ void checkOptions(const Synthetic3DOptions& o) {
 }
 
 // The true pose at time i: on the lap's circle, facing along the track, pitched with the slope.
-Pose truePose(const Synthetic3DOptions& o, int i) {
+Pose3 truePose(const Synthetic3DOptions& o, int i) {
   const int per_lap = o.poses / o.laps;
   const int lap = std::min(i / per_lap, o.laps - 1);
   const double phi = 2.0 * kPi * static_cast<double>(i) / static_cast<double>(per_lap);
@@ -79,52 +48,39 @@ Pose truePose(const Synthetic3DOptions& o, int i) {
   return {q.normalized(), Eigen::Vector3d(r * std::cos(phi), r * std::sin(phi), z)};
 }
 
-ModelFactor betweenFactor(const Synthetic3DOptions& o, Random& random, int from, int to,
-                          const Pose& a, const Pose& b) {
-  const Pose rel = relative(a, b);
-  const Eigen::Vector3d dt = normal3(random, o.sigma_translation);
-  const Eigen::Vector3d dr = normal3(random, o.sigma_rotation);
-  const Pose z{(rel.q * rotationOf(dr)).normalized(), rel.t + rel.q * dt};
-  ModelFactor f;
-  f.kind = FactorKind::BetweenSE3;
-  f.first = {VariableRole::Pose, from};
-  f.second = {VariableRole::Pose, to};
-  f.measurement = poseParameters(z);
-  f.information = Eigen::MatrixXd::Zero(6, 6);
-  for (int k = 0; k < 3; ++k) {
-    f.information(k, k) = 1.0 / (o.sigma_translation * o.sigma_translation);
-    f.information(k + 3, k + 3) = 4.0 / (o.sigma_rotation * o.sigma_rotation);
-  }
-  return f;
+ModelFactor betweenFactor(const Synthetic3DOptions& o, detail::PortableRandom& random, int from,
+                          int to, const Pose3& a, const Pose3& b) {
+  return detail::noisyBetweenSE3(from, to, detail::relativePose(a, b), o.sigma_translation,
+                                 o.sigma_rotation, random);
 }
 
 }  // namespace
 
-ModelDataset generateLandmarkWorld3D(const Synthetic3DOptions& o) {
+detail::WorldDraft detail::draftLandmarkWorld3D(const Synthetic3DOptions& o) {
   checkOptions(o);
-  Random random(o.seed);
+  detail::PortableRandom random(o.seed);
   const int per_lap = o.poses / o.laps;
-  std::vector<Eigen::Vector3d> landmarks;
+  detail::WorldDraft w;
+  w.name = "synthetic-landmarks-3d";
+  w.dimension = 3;
   for (int k = 0; k < o.landmarks; ++k) {
     const double phi = 2.0 * kPi * random.uniform();
     const double r = o.radius + o.landmark_spread * (2.0 * random.uniform() - 1.0);
     const double z = -1.0 + 3.0 * random.uniform();
-    landmarks.emplace_back(r * std::cos(phi), r * std::sin(phi), z);
+    w.landmarks.emplace_back(Eigen::Vector3d(r * std::cos(phi), r * std::sin(phi), z));
   }
-
-  // Factors in online order; observations name the scattered landmark's index for now.
-  std::vector<ModelFactor> factors;
-  std::vector<int> observed(landmarks.size(), 0);
+  // Observations name the scattered landmark's index.
   for (int i = 0; i < o.poses; ++i) {
-    const Pose x = truePose(o, i);
-    if (i > 0) factors.push_back(betweenFactor(o, random, i - 1, i, truePose(o, i - 1), x));
+    const Pose3 x = truePose(o, i);
+    w.poses.push_back(detail::poseParameters(x));
+    if (i > 0) w.factors.push_back(betweenFactor(o, random, i - 1, i, truePose(o, i - 1), x));
     if (i >= per_lap && random.uniform() < o.loop_probability) {
-      factors.push_back(betweenFactor(o, random, i - per_lap, i, truePose(o, i - per_lap), x));
+      w.factors.push_back(betweenFactor(o, random, i - per_lap, i, truePose(o, i - per_lap), x));
     }
     if (random.uniform() >= o.observation_probability) continue;
     std::vector<std::pair<double, int>> in_range;  // (distance, landmark), nearest first
-    for (std::size_t k = 0; k < landmarks.size(); ++k) {
-      const double d = (landmarks[k] - x.t).norm();
+    for (std::size_t k = 0; k < w.landmarks.size(); ++k) {
+      const double d = (w.landmarks[k] - x.t).norm();
       if (d <= o.sensor_range) in_range.emplace_back(d, static_cast<int>(k));
     }
     std::sort(in_range.begin(), in_range.end());
@@ -136,11 +92,20 @@ ModelDataset generateLandmarkWorld3D(const Synthetic3DOptions& o) {
       f.kind = FactorKind::PointXYZ3;
       f.first = {VariableRole::Pose, i};
       f.second = {VariableRole::Landmark, k};
-      f.measurement = x.q.conjugate() * (landmarks[k] - x.t) + normal3(random, o.sigma_point);
+      const Eigen::Vector3d l = w.landmarks[static_cast<std::size_t>(k)];
+      f.measurement = x.q.conjugate() * (l - x.t) + detail::normal3(random, o.sigma_point);
       f.information = Eigen::MatrixXd::Identity(3, 3) / (o.sigma_point * o.sigma_point);
-      factors.push_back(f);
-      ++observed[k];
+      w.factors.push_back(f);
     }
+  }
+  return w;
+}
+
+ModelDataset generateLandmarkWorld3D(const Synthetic3DOptions& o) {
+  const detail::WorldDraft w = detail::draftLandmarkWorld3D(o);
+  std::vector<int> observed(w.landmarks.size(), 0);
+  for (const ModelFactor& f : w.factors) {
+    if (f.kind == FactorKind::PointXYZ3) ++observed[static_cast<std::size_t>(f.second.id)];
   }
 
   // Keep landmarks seen at least twice, renumbered after the poses in order of first observation.
@@ -150,7 +115,7 @@ ModelDataset generateLandmarkWorld3D(const Synthetic3DOptions& o) {
   d.convention = ObjectiveConvention::G2o;
   d.dimension = 3;
   std::map<int, std::int64_t> id_of;
-  for (ModelFactor& f : factors) {
+  for (ModelFactor f : w.factors) {
     if (f.kind == FactorKind::PointXYZ3) {
       const int k = static_cast<int>(f.second.id);
       if (observed[k] < 2) continue;

@@ -157,3 +157,53 @@ TEST_CASE("generate: the same rules") {
   CHECK(args.options.poses == 12);
   CHECK(args.options.seed == 4294967295u);
 }
+
+namespace {
+
+std::string simulateError(const Argv& argv) {
+  lslam::sim::SimulateArgs args;
+  return lslam::sim::parseSimulateArgs(argv, args).value_or("");
+}
+
+}  // namespace
+
+TEST_CASE("simulate: WORLD first, then the rules of the other commands") {
+  CHECK(simulateError({}) == "missing WORLD (grid2d, sphere3d, garage3d or points3d)");
+  CHECK(simulateError({"--steps", "5", "grid2d", "out.g2o"}) ==
+        "missing WORLD (grid2d, sphere3d, garage3d or points3d)");
+  CHECK(simulateError({"moon", "out.g2o"}) ==
+        "unknown world \"moon\" (expected grid2d, sphere3d, garage3d or points3d)");
+  CHECK(simulateError({"grid2d"}) == "missing OUT.g2o");
+  CHECK(simulateError({"grid2d", "out.g2o", "--bogus"}) == "unknown option \"--bogus\"");
+  CHECK(simulateError({"grid2d", "out.g2o", "--steps", "1"}) ==
+        "--steps: invalid value \"1\" (expected an integer >= 2)");
+  CHECK(simulateError({"grid2d", "out.g2o", "--sigma-rotation", "0"}) ==
+        "--sigma-rotation: invalid value \"0\" (expected a finite number > 0)");
+  CHECK(simulateError({"grid2d", "out.g2o", "--outlier-rate", "1.5"}) ==
+        "--outlier-rate: invalid value \"1.5\" (expected a number in [0, 1])");
+  CHECK(simulateError({"grid2d", "out.g2o", "--landmark-measurement", "sonar"}) ==
+        "--landmark-measurement: invalid value \"sonar\" (expected position or range-bearing)");
+  CHECK(simulateError({"grid2d", "out.g2o", "--floors", "2", "--floors", "3"}) ==
+        "--floors given twice");
+
+  // Options start from the world's defaults; the line overrides them.
+  lslam::sim::SimulateArgs args;
+  REQUIRE(lslam::sim::parseSimulateArgs({"sphere3d", "--seed", "9", "s.g2o", "--steps", "100"},
+                                        args) == std::nullopt);
+  CHECK(args.world == lslam::sim::WorldKind::Sphere3D);
+  CHECK(args.out == "s.g2o");
+  CHECK(args.options.steps == 100);
+  CHECK(args.options.seed == 9u);
+  const lslam::sim::WorldOptions sphere =
+      lslam::sim::defaultWorldOptions(lslam::sim::WorldKind::Sphere3D);
+  CHECK(args.options.loop_probability == sphere.loop_probability);
+  REQUIRE(lslam::sim::parseSimulateArgs(
+              {"grid2d", "g.g2o", "--landmark-measurement", "range-bearing", "--outlier-rate",
+               "0.25", "--sigma-bearing", "0.02", "--grid-size", "7", "--landmarks", "0"},
+              args) == std::nullopt);
+  CHECK(args.options.landmark_measurement == lslam::sim::LandmarkMeasurement::RangeBearing);
+  CHECK(args.options.outlier_rate == 0.25);
+  CHECK(args.options.sigma_bearing == 0.02);
+  CHECK(args.options.grid_size == 7);
+  CHECK(args.options.landmarks == 0);
+}

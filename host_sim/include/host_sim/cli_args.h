@@ -9,6 +9,7 @@
 
 #include "host_sim/steps.h"
 #include "host_sim/synthetic.h"
+#include "host_sim/worlds.h"
 #include "lslam/solver/solver_options.h"
 
 namespace lslam::sim {
@@ -44,6 +45,13 @@ struct GenerateArgs {
   SyntheticOptions options;
 };
 
+// `lslam-sim simulate WORLD OUT.g2o [options]`: options start from defaultWorldOptions(world).
+struct SimulateArgs {
+  WorldKind world = WorldKind::Grid2D;
+  std::string out;
+  WorldOptions options;
+};
+
 // The arguments after the word `run` (or `generate`) into args: nullopt, or the message of a usage
 // error (lslam-sim prints it and exits with status 2), which names the offending argument. The one
 // positional argument (DATASET, OUT.g2o) may stand anywhere among the options. Usage errors: an
@@ -54,5 +62,8 @@ struct GenerateArgs {
 std::optional<std::string> parseRunArgs(const std::vector<std::string>& argv, RunArgs& args);
 std::optional<std::string> parseGenerateArgs(const std::vector<std::string>& argv,
                                              GenerateArgs& args);
+// WORLD must come first (its defaults are the options' starting values); then as above.
+std::optional<std::string> parseSimulateArgs(const std::vector<std::string>& argv,
+                                             SimulateArgs& args);
 
 }  // namespace lslam::sim

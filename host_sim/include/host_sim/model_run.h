@@ -79,7 +79,8 @@ template <class Model>
 ModelFactorInput<Model> modelFactorInput(const ModelDataset& d, const ModelFactor& f);
 
 // The solver options the model `d` runs on start from (lslam::defaultSolverOptions of the model
-// runModelIncremental picks: Slam2D, Slam3D, PoseSlam2D or PoseSlam3D).
+// runModelIncremental picks: Slam2D, Slam3D, PoseSlam2D or PoseSlam3D), with
+// withRangeBearingObservations if a factor is RangeBearing2.
 SolverOptions defaultModelOptions(const ModelDataset& d);
 
 // Whether a factor or a vertex of `d` names a landmark.
