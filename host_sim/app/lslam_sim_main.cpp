@@ -7,6 +7,7 @@
 //   lslam-sim generate OUT.g2o [--poses N] [--seed S]
 //   lslam-sim --help | simulate --help
 #include <sys/resource.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -228,11 +229,21 @@ void setRun(const ModelRun& inc, RunSummary& r) {
   r.solver_bytes = inc.solver_bytes;
 }
 
+// One line on stderr, rewritten in place: steps done, steps per second, chi2 so far.
+void printProgress(const RunProgress& p) {
+  const double rate = p.wall_seconds > 0 ? static_cast<double>(p.steps_done) / p.wall_seconds : 0;
+  std::fprintf(stderr, "\rlslam-sim: step %zu/%zu, %.0f steps/s, chi2 %.6g\033[K", p.steps_done,
+               p.steps_total, rate, p.chi2);
+  if (p.steps_done == p.steps_total) std::fputc('\n', stderr);
+}
+
 IncrementalOptions incrementalOptions(const RunArgs& args) {
   IncrementalOptions options;
   options.order = args.order;
   options.solve_every = args.solve_every;
   options.solver = args.solver;
+  // Progress only for a person watching: never into a redirected stderr.
+  if (isatty(fileno(stderr)) != 0) options.progress = printProgress;
   return options;
 }
 

@@ -202,7 +202,42 @@ class Runner {
   using Variable = ModelVariableInput<Model>;
   using Measurement = ModelFactorInput<Model>;
 
+  using Clock = std::chrono::steady_clock;
+
   Runner(const ModelDataset& d, const IncrementalOptions& options) : d_(d), options_(options) {}
+
+  ModelEstimate estimateOf(const Solver& solver) const {
+    ModelEstimate estimate;
+    for (Index v = 0; v < solver.variables(); ++v) {
+      const bool pose = solver.kindAt(v) == 0;
+      const VariableKey key{pose ? VariableRole::Pose : VariableRole::Landmark, solver.idAt(v)};
+      estimate[key] = pose ? toParameters(solver.template estimateAt<Pose>(v))
+                           : toParameters(solver.template estimateAt<Landmark>(v));
+    }
+    return estimate;
+  }
+
+  // Calls options_.progress after step s if the interval has passed or s is the last step.
+  void reportProgress(const Solver& solver, const std::vector<ModelStep>& steps, std::size_t s,
+                      Clock::time_point start) {
+    const auto now = Clock::now();
+    const double since = std::chrono::duration<double>(now - last_report_).count();
+    if (s + 1 < steps.size() && since < options_.progress_interval_s) return;
+    last_report_ = now;
+    RunProgress p;
+    p.steps_done = s + 1;
+    p.steps_total = steps.size();
+    p.wall_seconds = std::chrono::duration<double>(now - start).count();
+    const ModelEstimate estimate = estimateOf(solver);
+    for (std::size_t t = 0; t <= s; ++t) {
+      for (const std::size_t k : steps[t].factors) {
+        const ModelFactor& f = d_.factors[k];
+        const Eigen::VectorXd e = factorError(d_.convention, f, estimate);
+        p.chi2 += e.dot(f.information * e);
+      }
+    }
+    options_.progress(p);
+  }
 
   ModelRun run() {
     const std::vector<ModelStep> steps = buildModelSteps(d_, options_.order);
@@ -219,7 +254,7 @@ class Runner {
     std::vector<Measurement> factors;
     std::vector<Variable> variables;
     std::int64_t previous_pose = -1;
-    using Clock = std::chrono::steady_clock;
+    const auto start = Clock::now();
     for (std::size_t s = 0; s < steps.size(); ++s) {
       const ModelStep& step = steps[s];
       variables.clear();
@@ -247,13 +282,9 @@ class Runner {
       out.reorders += record.result.reordered ? 1 : 0;
       out.steps.push_back(record);
       if (step.new_pose.id >= 0) previous_pose = step.new_pose.id;
+      if (options_.progress) reportProgress(*solver, steps, s, start);
     }
-    for (Index v = 0; v < solver->variables(); ++v) {
-      const bool pose = solver->kindAt(v) == 0;
-      const VariableKey key{pose ? VariableRole::Pose : VariableRole::Landmark, solver->idAt(v)};
-      out.estimate[key] = pose ? toParameters(solver->template estimateAt<Pose>(v))
-                               : toParameters(solver->template estimateAt<Landmark>(v));
-    }
+    out.estimate = estimateOf(*solver);
     out.poses = solver->poses();
     out.landmarks = solver->landmarks();
     out.factor_blocks = solver->factorBlocks();
@@ -299,6 +330,7 @@ class Runner {
 
   const ModelDataset& d_;
   IncrementalOptions options_;
+  Clock::time_point last_report_{};
 };
 
 // A 6-vector error of g2o's SE3 convention as the residual pose it measures, (t, q) with the

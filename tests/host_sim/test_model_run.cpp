@@ -20,6 +20,7 @@
 #include "host_sim/model_chi2.h"
 #include "host_sim/model_dataset_io.h"
 #include "host_sim/model_run.h"
+#include "host_sim/worlds.h"
 #include "model_test_support.h"
 
 using lslam::sim::FactorKind;
@@ -353,4 +354,30 @@ TEST_CASE("isPoseGraph2D: SE2 poses with SE2 factors only") {
   d.factors = poses_only;
   CHECK(sim::isPoseGraph2D(d));
   CHECK_FALSE(sim::isPoseGraph2D(makeRun(2, 3, ObjectiveConvention::G2o, 1e-3)));
+}
+
+TEST_CASE("progress: steps in order, and the last report's chi2 is that of the final estimate") {
+  sim::WorldOptions o = sim::defaultWorldOptions(sim::WorldKind::Points3D);
+  o.steps = 120;
+  const ModelDataset d = sim::simulateWorld(sim::WorldKind::Points3D, o).dataset;
+  std::vector<sim::RunProgress> reports;
+  sim::IncrementalOptions options;
+  options.solver = sim::defaultModelOptions(d);
+  options.progress = [&](const sim::RunProgress& p) { reports.push_back(p); };
+  options.progress_interval_s = 0.0;  // after every step
+  const sim::ModelRun run = sim::runModelIncremental(d, options);
+  REQUIRE(reports.size() == run.steps.size());
+  for (std::size_t i = 0; i < reports.size(); ++i) {
+    CHECK(reports[i].steps_done == i + 1);
+    CHECK(reports[i].steps_total == run.steps.size());
+    CHECK(reports[i].chi2 >= 0.0);
+    if (i > 0) CHECK(reports[i].wall_seconds >= reports[i - 1].wall_seconds);
+  }
+  CHECK(reports.back().chi2 == doctest::Approx(sim::chi2(d, run.estimate)).epsilon(1e-12));
+  // A long interval still reports the last step.
+  reports.clear();
+  options.progress_interval_s = 1e9;
+  (void)sim::runModelIncremental(d, options);
+  REQUIRE(!reports.empty());
+  CHECK(reports.back().steps_done == run.steps.size());
 }

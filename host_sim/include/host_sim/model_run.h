@@ -10,6 +10,7 @@
 // angles), so the solver minimises iSAM's objective up to second-order terms in the errors. chi2
 // is always evaluated in the file's own convention (model_chi2.h).
 #include <cstddef>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -33,10 +34,22 @@ struct StepRecord {
   UpdateResult result;
 };
 
+// Where a run stands, for a progress display: called between steps, outside their clocks.
+struct RunProgress {
+  std::size_t steps_done = 0;
+  std::size_t steps_total = 0;
+  double wall_seconds = 0.0;  // since the run started (steps, conversions and reports)
+  double chi2 = 0.0;          // of the factors added so far, at the current estimate
+};
+
 struct IncrementalOptions {
   StepOrder order = StepOrder::Online;
   int solve_every = 1;  // back-substitute after every N-th step (and after the last)
   SolverOptions solver;
+  // If set, called after a step once progress_interval_s has passed since the last call (and
+  // after the last step). Each call reads the whole estimate and evaluates chi2: O(graph).
+  std::function<void(const RunProgress&)> progress;
+  double progress_interval_s = 0.5;
 };
 
 struct ModelRun {
