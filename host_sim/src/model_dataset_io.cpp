@@ -40,6 +40,7 @@ enum class Tag {
   VertexXY,
   EdgeSE2,
   EdgeSE2XY,
+  EdgeSE2RangeBearing,
   Fix,
   VertexSE3,
   VertexTrackXYZ,
@@ -56,11 +57,12 @@ enum class Tag {
 };
 
 Tag classify(std::string_view tag) {
-  static const std::array<std::pair<std::string_view, Tag>, 16> kTags = {{
+  static const std::array<std::pair<std::string_view, Tag>, 17> kTags = {{
       {"VERTEX_SE2", Tag::VertexSE2},
       {"VERTEX_XY", Tag::VertexXY},
       {"EDGE_SE2", Tag::EdgeSE2},
       {"EDGE_SE2_XY", Tag::EdgeSE2XY},
+      {"EDGE_SE2_RANGE_BEARING", Tag::EdgeSE2RangeBearing},
       {"FIX", Tag::Fix},
       {"VERTEX_SE3:QUAT", Tag::VertexSE3},
       {"VERTEX_TRACKXYZ", Tag::VertexTrackXYZ},
@@ -87,6 +89,7 @@ int tagDimension(Tag tag) {
     case Tag::VertexXY:
     case Tag::EdgeSE2:
     case Tag::EdgeSE2XY:
+    case Tag::EdgeSE2RangeBearing:
     case Tag::Vertex2:
     case Tag::Edge2:
     case Tag::Odometry:
@@ -126,9 +129,9 @@ DatasetFormat tagFormat(Tag tag, DatasetFormat edge2) {
 
 std::string unsupportedReason(std::string_view tag) {
   return "unsupported record " + show(tag) +
-         " (expected g2o VERTEX_SE2/VERTEX_XY/EDGE_SE2/EDGE_SE2_XY/VERTEX_SE3:QUAT/"
-         "VERTEX_TRACKXYZ/EDGE_SE3:QUAT/EDGE_SE3_TRACKXYZ/PARAMS_SE3OFFSET/FIX, TORO "
-         "VERTEX2/EDGE2 or iSAM ODOMETRY/EDGE2/LANDMARK/EDGE3/POINT3)";
+         " (expected g2o VERTEX_SE2/VERTEX_XY/EDGE_SE2/EDGE_SE2_XY/EDGE_SE2_RANGE_BEARING/"
+         "VERTEX_SE3:QUAT/VERTEX_TRACKXYZ/EDGE_SE3:QUAT/EDGE_SE3_TRACKXYZ/PARAMS_SE3OFFSET/FIX, "
+         "TORO VERTEX2/EDGE2 or iSAM ODOMETRY/EDGE2/LANDMARK/EDGE3/POINT3)";
 }
 
 bool hasGraphExtension(const std::string& name) {
@@ -167,6 +170,7 @@ const char* roleName(VariableRole role) {
 std::pair<VariableKind, VariableKind> endpointKinds(FactorKind kind) {
   switch (kind) {
     case FactorKind::PointXY2:
+    case FactorKind::RangeBearing2:
       return {VariableKind::SE2, VariableKind::Point2};
     case FactorKind::BetweenSE3:
       return {VariableKind::SE3, VariableKind::SE3};
@@ -197,6 +201,8 @@ const char* factorTag(FactorKind kind, DatasetFormat format) {
       return format == DatasetFormat::Toro ? "EDGE2" : "EDGE_SE2";
     case FactorKind::PointXY2:
       return "EDGE_SE2_XY";
+    case FactorKind::RangeBearing2:
+      return "EDGE_SE2_RANGE_BEARING";
     case FactorKind::BetweenSE3:
       return "EDGE_SE3:QUAT";
     case FactorKind::PointXYZ3:
@@ -325,6 +331,22 @@ const std::vector<std::string> kDiagonalR3 = {"R11", "R22", "R33"};
 // EDGE3: S's diagonal in iSAM's order (x y z yaw pitch roll) is the file's S11 S22 S33 S66 S55 S44.
 const std::vector<std::string> kDiagonalEdge3 = {"S11", "S22", "S33", "S66", "S55", "S44"};
 
+// ---- range and bearing ----
+
+// The double nearest pi (below it): |bearing| <= kPi is exactly bearing in (-pi, pi].
+constexpr double kPi = 3.141592653589793;
+
+// Why (range, bearing) is not a valid EDGE_SE2_RANGE_BEARING measurement; empty if it is. Both
+// are finite here. A zero range is rejected as the factor does (lslam::validateRangeBearingSE2);
+// the bearing is not wrapped, so that what is stored is what the file says.
+std::string rangeBearingProblem(double range, double bearing) {
+  if (!(range > 0.0)) return "range " + formatDouble(range) + " is not positive";
+  if (!(std::abs(bearing) <= kPi)) {
+    return "bearing " + formatDouble(bearing) + " is outside (-pi, pi] (radians, wrapped)";
+  }
+  return {};
+}
+
 // ---- rotations ----
 
 void checkQuaternion(const FieldParser& p, const Record& r, double qx, double qy, double qz,
@@ -387,8 +409,9 @@ class Reader {
         edgeSE2(p, r);
         break;
       case Tag::EdgeSE2XY:
+      case Tag::EdgeSE2RangeBearing:
       case Tag::Landmark:
-        pointXY(p, r);
+        observation2(p, r);
         break;
       case Tag::EdgeSE3:
         edgeSE3(p, r);
@@ -504,12 +527,18 @@ class Reader {
               std::move(m), r.line);
   }
 
-  // EDGE_SE2_XY (g2o), LANDMARK (iSAM).
-  void pointXY(const FieldParser& p, const Record& r) {
+  // EDGE_SE2_XY (g2o), EDGE_SE2_RANGE_BEARING (lslam's g2o record), LANDMARK (iSAM).
+  void observation2(const FieldParser& p, const Record& r) {
     p.expectFields(8);
+    const bool range_bearing = r.tag == Tag::EdgeSE2RangeBearing;
     const std::int64_t pose = p.id(1, "pose");
     const std::int64_t lm = p.id(2, "landmark");
-    const std::vector<double> z = {p.number(3, "dx"), p.number(4, "dy")};
+    const std::vector<double> z = {p.number(3, range_bearing ? "range" : "dx"),
+                                   p.number(4, range_bearing ? "bearing" : "dy")};
+    if (range_bearing) {
+      if (const std::string why = rangeBearingProblem(z[0], z[1]); !why.empty())
+        p.fail(std::string(r.tokens[0]) + ": " + why);
+    }
     Eigen::MatrixXd m;
     if (d_.format == DatasetFormat::Isam) {
       m = isamInformation(p, r, upperFromValues(readTriangle(p, 5, 2, 'R'), 2), kDiagonalR2);
@@ -517,8 +546,8 @@ class Reader {
       sharedIdSpace(p, r, pose, lm);
       m = g2oInformation(p, r, 5, 2);
     }
-    addFactor(FactorKind::PointXY2, {VariableRole::Pose, pose}, {VariableRole::Landmark, lm}, z,
-              std::move(m), r.line);
+    addFactor(range_bearing ? FactorKind::RangeBearing2 : FactorKind::PointXY2,
+              {VariableRole::Pose, pose}, {VariableRole::Landmark, lm}, z, std::move(m), r.line);
   }
 
   // g2o: a pose and a landmark cannot have the same id.
@@ -854,7 +883,8 @@ void validate(const ModelDataset& d) {
                              std::to_string(f.first.id) + " -> " + std::to_string(f.second.id) +
                              ")";
     const bool writable = f.kind == FactorKind::BetweenSE2 || f.kind == FactorKind::PointXY2 ||
-                          f.kind == FactorKind::BetweenSE3 || f.kind == FactorKind::PointXYZ3;
+                          f.kind == FactorKind::RangeBearing2 || f.kind == FactorKind::BetweenSE3 ||
+                          f.kind == FactorKind::PointXYZ3;
     if (!writable) reject(what, "no g2o record is written for this factor kind");
     const auto [kind1, kind2] = endpointKinds(f.kind);
     if (dimensionOf(kind1) != d.dimension) {
@@ -877,6 +907,10 @@ void validate(const ModelDataset& d) {
     const VariableKind predicted = kind2;
     checkValues(f.measurement, parameterCount(predicted), predicted == VariableKind::SE3,
                 what + " measurement");
+    if (f.kind == FactorKind::RangeBearing2) {
+      const std::string why = rangeBearingProblem(f.measurement[0], f.measurement[1]);
+      if (!why.empty()) reject(what + " measurement", why);
+    }
     const Eigen::Index n = errorDimension(f.kind);
     if (f.information.rows() != n || f.information.cols() != n) {
       reject(what, "information is " + std::to_string(f.information.rows()) + "x" +

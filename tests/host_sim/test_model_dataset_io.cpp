@@ -3,15 +3,18 @@
 // Euler angles with Eigen's AngleAxis, independently of the reader); every error with its line;
 // write -> read bit-exact for 2D, 3D and landmark datasets; the writer's rejections; the real
 // files' counts; and the EDGE3 convention checked against groundtruth/sphere2500_groundtruth.txt
-// (its loop closures must agree with its composed odometry).
+// (its loop closures must agree with its composed odometry). lslam's EDGE_SE2_RANGE_BEARING: read,
+// errors, write -> read, and a small file run incrementally against the batch solver.
 #include <doctest/doctest.h>
 
 #include <Eigen/Dense>
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <optional>
 #include <random>
 #include <set>
@@ -19,11 +22,15 @@
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "host_sim/dataset_io.h"
+#include "host_sim/model_batch_solver.h"
+#include "host_sim/model_chi2.h"
 #include "host_sim/model_dataset.h"
 #include "host_sim/model_dataset_io.h"
+#include "host_sim/model_run.h"
 
 using lslam::sim::DatasetError;
 using lslam::sim::DatasetFormat;
@@ -225,6 +232,47 @@ TEST_CASE("g2o 2D: VERTEX_SE2, VERTEX_XY, EDGE_SE2, EDGE_SE2_XY, FIX") {
   REQUIRE(d.fixed.size() == 2);
   CHECK(sameKey(d.fixed[0], pose(0)));
   CHECK(sameKey(d.fixed[1], landmark(7)));  // a FIX takes the role of its vertex
+}
+
+TEST_CASE("EDGE_SE2_RANGE_BEARING: lslam's range-bearing record -> RangeBearing2") {
+  const ModelDataset d = parse({
+      "VERTEX_SE2 0 1 2 0.5",
+      "VERTEX_XY 7 3.5 -4",
+      "EDGE_SE2_RANGE_BEARING 0 7 2.5 -1.25 4 0.5 9",
+      "EDGE_SE2_RANGE_BEARING 0 7 1e-300 3.141592653589793 1 0 1",  // the largest bearing
+      "EDGE_SE2_RANGE_BEARING 0 7 7 -3.141592653589793 1 -0.75 1",  // -pi rounded, > -pi
+      "EDGE_SE2_RANGE_BEARING 0 7 +0.5 -0 2 0 3",
+  });
+  CHECK(d.format == DatasetFormat::G2o);
+  CHECK(d.convention == ObjectiveConvention::G2o);
+  CHECK(d.dimension == 2);
+  REQUIRE(d.factors.size() == 4);
+  const ModelFactor& f = d.factors[0];
+  CHECK(f.kind == FactorKind::RangeBearing2);
+  CHECK(sameKey(f.first, pose(0)));
+  CHECK(sameKey(f.second, landmark(7)));
+  CHECK(f.measurement == vec({2.5, -1.25}));
+  Eigen::Matrix2d info;
+  info << 4, 0.5, 0.5, 9;  // (range, bearing) order, as written
+  CHECK(f.information == Eigen::MatrixXd(info));
+  CHECK(f.line == 3);
+  // Bearings are stored as read: the bounds of (-pi, pi] in doubles, and -0.
+  const double pi = std::acos(-1.0);  // the double nearest pi
+  CHECK(d.factors[1].measurement == vec({1e-300, pi}));
+  CHECK(d.factors[2].measurement == vec({7, -pi}));
+  CHECK(d.factors[2].information(1, 0) == -0.75);
+  CHECK(d.factors[3].measurement[0] == 0.5);
+  CHECK(std::signbit(d.factors[3].measurement[1]));
+  CHECK(d.factors[3].line == 6);
+
+  // Edge-only: the landmark id takes the landmark role (FIX too), as for EDGE_SE2_XY.
+  const ModelDataset edges = parse(
+      Lines{"EDGE_SE2 0 1 1 0 0 1 0 0 1 0 1", "EDGE_SE2_RANGE_BEARING 1 5 2 0.5 1 0 1", "FIX 5"});
+  REQUIRE(edges.factors.size() == 2);
+  CHECK(edges.factors[1].kind == FactorKind::RangeBearing2);
+  CHECK(sameKey(edges.factors[1].second, landmark(5)));
+  REQUIRE(edges.fixed.size() == 1);
+  CHECK(sameKey(edges.fixed[0], landmark(5)));
 }
 
 namespace {
@@ -527,6 +575,70 @@ TEST_CASE("errors: ids: duplicates, kinds, declarations, roles, FIX") {
   CHECK(sameKey(isam.factors[1].second, landmark(1)));
 }
 
+TEST_CASE("errors: EDGE_SE2_RANGE_BEARING gives its line") {
+  const std::string v = "VERTEX_SE2 0 0 0 0";
+  const std::string l = "VERTEX_XY 4 1 1";
+  const std::string tag = "EDGE_SE2_RANGE_BEARING";
+  CHECK_NOTHROW(parse(Lines{v, l, tag + " 0 4 1.5 0.5 1 0 1"}));
+  // Field counts.
+  expectError({v, l, tag + " 0 4 1.5 0.5 1 0"}, "t.g2o", 3,
+              {"EDGE_SE2_RANGE_BEARING: expected 8 fields, got 7", "truncated"});
+  expectError({v, l, tag + " 0 4 1.5 0.5 1 0 1 2"}, "t.g2o", 3,
+              {"trailing garbage '2'", "expected 8 fields, got 9"});
+  // Numbers: not finite, not numbers.
+  expectError({v, l, tag + " 0 4 nan 0.5 1 0 1"}, "t.g2o", 3,
+              {"EDGE_SE2_RANGE_BEARING field range", "'nan'"});
+  expectError({v, l, tag + " 0 4 1.5 inf 1 0 1"}, "t.g2o", 3,
+              {"EDGE_SE2_RANGE_BEARING field bearing", "'inf'"});
+  expectError({v, l, tag + " 0 4 1.5 0.5 1 0 1e400"}, "t.g2o", 3,
+              {"EDGE_SE2_RANGE_BEARING field I22", "'1e400'"});
+  expectError({v, l, tag + " 0 x 1.5 0.5 1 0 1"}, "t.g2o", 3,
+              {"EDGE_SE2_RANGE_BEARING field landmark", "'x' is not an integer id"});
+  // Range > 0.
+  for (const std::string range : {"0", "-0", "-1.5", "-1e-300"}) {
+    expectError({v, l, tag + " 0 4 " + range + " 0.5 1 0 1"}, "t.g2o", 3,
+                {"EDGE_SE2_RANGE_BEARING: range", "is not positive"});
+  }
+  // Bearing in (-pi, pi]: the doubles just outside the rounded pi, degrees, a full turn.
+  for (const std::string bearing :
+       {"3.1415926535897936", "-3.1415926535897936", "90", "6.283185307179586"}) {
+    expectError({v, l, tag + " 0 4 1 " + bearing + " 1 0 1"}, "t.g2o", 3,
+                {"EDGE_SE2_RANGE_BEARING: bearing", "outside (-pi, pi]"});
+  }
+  // Information: symmetric upper triangle, positive definite.
+  expectError({v, l, tag + " 0 4 1.5 0.5 1 0 -1"}, "t.g2o", 3,
+              {"EDGE_SE2_RANGE_BEARING: information matrix is not positive definite",
+               "smallest eigenvalue -1"});
+  expectError({v, l, tag + " 0 4 1.5 0.5 0 0 1"}, "t.g2o", 3, {"not positive definite"});
+  expectError({v, l, tag + " 0 4 1.5 0.5 1 2 1"}, "t.g2o", 3, {"not positive definite"});
+  // Ids: the same id for both, undeclared ids, a landmark id that is a pose and the reverse.
+  expectError({v, tag + " 0 0 1.5 0.5 1 0 1"}, "t.g2o", 2, {"same id 0", "one space"});
+  expectError({v, l, tag + " 0 5 1.5 0.5 1 0 1"}, "t.g2o", 3,
+              {"EDGE_SE2_RANGE_BEARING 0 -> 5 names landmark 5", "no VERTEX_XY line declares"});
+  expectError({v, l, tag + " 3 4 1.5 0.5 1 0 1"}, "t.g2o", 3,
+              {"EDGE_SE2_RANGE_BEARING 3 -> 4 names pose 3", "no VERTEX_SE2 line declares"});
+  expectError(
+      {v, "VERTEX_SE2 2 0 0 0", tag + " 0 2 1.5 0.5 1 0 1"}, "t.g2o", 3,
+      {"EDGE_SE2_RANGE_BEARING 0 -> 2 names landmark 2", "VERTEX_SE2 at line 2", "as a pose"});
+  expectError(
+      {v, l, tag + " 4 0 1.5 0.5 1 0 1"}, "t.g2o", 3,
+      {"EDGE_SE2_RANGE_BEARING 4 -> 0 names pose 4", "VERTEX_XY at line 2", "as a landmark"});
+  // The earliest bad line is reported, also when the vertices come after the edges.
+  expectError({tag + " 0 4 1.5 0.5 1 0 1", tag + " 0 9 1.5 0.5 1 0 1", v, l}, "t.g2o", 2,
+              {"names landmark 9"});
+  // Edge-only: an id is a pose or a landmark.
+  expectError({"EDGE_SE2 0 1 1 0 0 1 0 0 1 0 1", tag + " 0 1 1.5 0.5 1 0 1"}, "t.g2o", 2,
+              {"uses id 1 as a landmark", "line 1 uses it as a pose"});
+  // A duplicate landmark vertex.
+  expectError({v, l, "VERTEX_XY 4 2 2", tag + " 0 4 1.5 0.5 1 0 1"}, "t.g2o", 3,
+              {"duplicate vertex id 4", "line 2"});
+  // A g2o 2D record: not in iSAM or TORO files, nor in 3D files.
+  expectError({"ODOMETRY 0 1 1 0 0 1 0 0 1 0 1", tag + " 1 5 1.5 0.5 1 0 1"}, "t.txt", 2,
+              {"record 'EDGE_SE2_RANGE_BEARING' is a g2o record, but the file is read as iSAM"});
+  expectError({"VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1", tag + " 0 5 1.5 0.5 1 0 1"}, "t.g2o", 2,
+              {"record 'EDGE_SE2_RANGE_BEARING' is a 2D record, but the file is 3D"});
+}
+
 TEST_CASE("errors: formats, dimensions and unknown records give their line") {
   expectError({"VERTEX_SE2 0 0 0 0", "EDGE3 0 1 0 0 0 0 0 0"}, "t.g2o", 2,
               {"record 'EDGE3' is a iSAM record, but the file is read as g2o (first g2o record at "
@@ -569,7 +681,8 @@ TEST_CASE("random single-token corruptions parse or throw DatasetError within th
   const std::vector<std::pair<std::string, Lines>> files = {
       {"t.g2o",
        {"VERTEX_SE2 0 0 0 0", "VERTEX_SE2 1 1 0 0.5", "VERTEX_XY 5 2 1", "FIX 0",
-        "EDGE_SE2 0 1 1 0 0.5 10 0 0 10 0 20", "EDGE_SE2_XY 1 5 1 1 4 0.5 9"}},
+        "EDGE_SE2 0 1 1 0 0.5 10 0 0 10 0 20", "EDGE_SE2_XY 1 5 1 1 4 0.5 9",
+        "EDGE_SE2_RANGE_BEARING 0 5 2.5 0.4 4 0.5 9"}},
       {"t.g2o",
        {"PARAMS_SE3OFFSET 0 0 0 0 0 0 0 1", "VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1",
         "VERTEX_SE3:QUAT 1 1 0 0 0 0 0.6 0.8", "VERTEX_TRACKXYZ 2 1 2 3",
@@ -661,6 +774,37 @@ ModelDataset landmarks2d() {
   return d;
 }
 
+// landmarks2d() with two more landmarks observed as range and bearing: awkward positive ranges
+// (down to the smallest subnormal) and bearings including -0 and the bounds of (-pi, pi].
+ModelDataset rangeBearing2d() {
+  ModelDataset d = landmarks2d();
+  for (int k = 0; k < 2; ++k) {
+    ModelVertex l;
+    l.key = landmark(11 + k);
+    l.kind = VariableKind::Point2;
+    l.value = vec({awkward(k + 2), awkward(k + 5)});
+    d.vertices.push_back(l);
+  }
+  const double pi = std::acos(-1.0);
+  const std::vector<std::pair<double, double>> zs = {{std::abs(awkward(0)), awkward(2)},
+                                                     {std::abs(awkward(1)), awkward(3)},
+                                                     {std::abs(awkward(4)), awkward(5)},
+                                                     {awkward(6), awkward(6)},
+                                                     {awkward(10), pi},
+                                                     {std::abs(awkward(9)), -pi},
+                                                     {awkward(7), std::nextafter(pi, 0.0)}};
+  for (std::size_t k = 0; k < zs.size(); ++k) {
+    ModelFactor f;
+    f.kind = FactorKind::RangeBearing2;
+    f.first = pose(static_cast<std::int64_t>(k % 4));
+    f.second = landmark(11 + static_cast<std::int64_t>(k % 2));
+    f.measurement = vec({zs[k].first, zs[k].second});
+    f.information = spd(2, 0.9 + 0.4 * static_cast<double>(k));
+    d.factors.push_back(f);
+  }
+  return d;
+}
+
 ModelDataset points3d() {
   ModelDataset d;
   d.dimension = 3;
@@ -734,6 +878,25 @@ TEST_CASE("writeModelG2o -> parseModelDataset is bit-exact (2D, 3D, landmarks, e
   edges.fixed = {landmark(10)};
   expectSameContents(roundTrip(edges), edges);
 
+  // Range-bearing observations, with vertices and edge-only.
+  const ModelDataset rb = rangeBearing2d();
+  REQUIRE(rb.factors.size() == 11);
+  for (std::size_t k = 4; k < rb.factors.size(); ++k) REQUIRE(rb.factors[k].measurement[0] > 0.0);
+  const ModelDataset rb_back = roundTrip(rb);
+  expectSameContents(rb_back, rb);
+  CHECK(rb_back.factors[6].measurement[1] == 0.0);
+  CHECK(std::signbit(rb_back.factors[6].measurement[1]));  // -0 stays -0
+  std::ostringstream rb_text;
+  writeModelG2o(rb_text, rb);
+  CHECK(rb_text.str().find("\nEDGE_SE2_RANGE_BEARING 0 11 ") != std::string::npos);
+  CHECK(rb_text.str().find(
+            "\nEDGE_SE2_RANGE_BEARING 0 11 0.30000000000000004 -0.2857142857142857 ") !=
+        std::string::npos);
+  ModelDataset rb_edges = rb;
+  rb_edges.vertices.clear();
+  rb_edges.fixed = {landmark(12), pose(1)};
+  expectSameContents(roundTrip(rb_edges), rb_edges);
+
   // A file written to disk reads back the same.
   const std::string path =
       (std::filesystem::temp_directory_path() / "lslam_test_model_dataset_io.g2o").string();
@@ -797,8 +960,49 @@ TEST_CASE("writeModelG2o rejects what the reader would reject, before writing an
   }
   {
     ModelDataset d = landmarks2d();
-    d.factors[1].kind = FactorKind::RangeBearing2;
+    d.factors[1].kind = FactorKind::PriorSE2;
     expectRejected(d, "no g2o record");
+  }
+  {
+    ModelDataset d = landmarks2d();
+    d.factors[1].kind = FactorKind::RangeBearing2;  // between two poses
+    expectRejected(d, "keys must be a pose and a landmark");
+  }
+  for (const double range : {0.0, -0.0, -1.0}) {
+    ModelDataset d = rangeBearing2d();
+    d.factors[5].measurement[0] = range;
+    expectRejected(d, "is not positive");
+  }
+  for (const double bearing :
+       {std::nextafter(std::acos(-1.0), 4.0), std::nextafter(-std::acos(-1.0), -4.0), 90.0}) {
+    ModelDataset d = rangeBearing2d();
+    d.factors[5].measurement[1] = bearing;
+    expectRejected(d, "outside (-pi, pi]");
+  }
+  {
+    ModelDataset d = rangeBearing2d();
+    d.factors[5].measurement[1] = std::numeric_limits<double>::infinity();
+    expectRejected(d, "non-finite");
+  }
+  {
+    ModelDataset d = rangeBearing2d();
+    d.factors[5].measurement = vec({1, 0.5, 0});
+    expectRejected(d, "3 values, expected 2");
+  }
+  {
+    ModelDataset d = rangeBearing2d();
+    d.factors[5].second = landmark(2);  // a pose's id
+    expectRejected(d, "not declared by a Point2 vertex");
+  }
+  {
+    ModelDataset d = rangeBearing2d();
+    d.factors[5].information = spd(3, 0.0);
+    expectRejected(d, "information is 3x3, expected 2x2");
+  }
+  {
+    ModelDataset d = rangeBearing2d();
+    d.factors[5].information(0, 1) = 1e3;
+    expectRejected(d, "not positive definite");
   }
   {
     ModelDataset d = landmarks2d();
@@ -824,6 +1028,122 @@ TEST_CASE("writeModelG2o rejects what the reader would reject, before writing an
     d.factors[2].information = spd(6, 0.0);
     expectRejected(d, "information is 6x6, expected 3x3");
   }
+}
+
+// ---- a range-bearing file run end to end ----
+
+namespace {
+
+double wrapped(double a) {
+  return std::atan2(std::sin(a), std::cos(a));
+}
+
+Eigen::Matrix3d poseMatrix(const Eigen::Vector3d& x) {
+  Eigen::Matrix3d t;
+  t << std::cos(x[2]), -std::sin(x[2]), x[0],  //
+      std::sin(x[2]), std::cos(x[2]), x[1],    //
+      0, 0, 1;
+  return t;
+}
+
+}  // namespace
+
+TEST_CASE("EDGE_SE2_RANGE_BEARING file: incremental run agrees with the batch solver") {
+  // Six poses along a gentle curve, three landmarks seen from several poses each; landmark 22 is
+  // behind pose 0 and 1, so that its bearings sit near +-pi and one noisy measurement wraps.
+  std::vector<Eigen::Vector3d> x;
+  for (int i = 0; i < 6; ++i) x.emplace_back(1.0 * i, 0.05 * i * i, 0.12 * i);
+  std::vector<std::pair<std::int64_t, Eigen::Vector2d>> lms;
+  lms.emplace_back(20, Eigen::Vector2d(2.0, 1.5));
+  lms.emplace_back(21, Eigen::Vector2d(4.5, -1.0));
+  lms.emplace_back(22, Eigen::Vector2d(-2.0, -0.05));
+  const auto lm = [&](std::int64_t id) {
+    for (const auto& [k, p] : lms) {
+      if (k == id) return p;
+    }
+    FAIL("no landmark " << id);
+    return Eigen::Vector2d(0, 0);
+  };
+  std::mt19937 rng(7);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  Eigen::Matrix3d odo_info;
+  odo_info << 2500, 40, 0, 40, 2500, 30, 0, 30, 10000;
+  Eigen::Matrix2d rb_info;
+  rb_info << 400, 30, 30, 2500;
+
+  // The file, and beside it each factor's error at the true values (computed here) for its chi2.
+  std::ostringstream text;
+  text.precision(17);
+  double chi2_truth = 0.0;
+  for (int i = 0; i < 6; ++i) text << "VERTEX_SE2 " << i << " " << x[i].transpose() << "\n";
+  for (const auto& [id, p] : lms) text << "VERTEX_XY " << id << " 0 0\n";
+  for (int i = 0; i + 1 < 6; ++i) {
+    const Eigen::Matrix3d rel = poseMatrix(x[i]).inverse() * poseMatrix(x[i + 1]);
+    const Eigen::Vector3d z(rel(0, 2) + 0.02 * gauss(rng), rel(1, 2) + 0.02 * gauss(rng),
+                            wrapped(std::atan2(rel(1, 0), rel(0, 0)) + 0.01 * gauss(rng)));
+    text << "EDGE_SE2 " << i << " " << i + 1 << " " << z.transpose() << " " << odo_info(0, 0) << " "
+         << odo_info(0, 1) << " " << odo_info(0, 2) << " " << odo_info(1, 1) << " "
+         << odo_info(1, 2) << " " << odo_info(2, 2) << "\n";
+    // g2o's EdgeSE2 error at the truth: (x, y, theta) of Z^-1 Xi^-1 Xj.
+    const Eigen::Matrix3d err = poseMatrix(z).inverse() * rel;
+    const Eigen::Vector3d e(err(0, 2), err(1, 2), std::atan2(err(1, 0), err(0, 0)));
+    chi2_truth += e.dot(odo_info * e);
+  }
+  const std::vector<std::pair<int, std::int64_t>> observations = {
+      {0, 20}, {0, 22}, {1, 20}, {1, 22}, {2, 20}, {2, 21}, {3, 21}, {4, 21}, {5, 21}, {5, 20}};
+  bool wrapped_one = false;
+  for (const auto& [i, id] : observations) {
+    const Eigen::Vector3d local = poseMatrix(x[i]).inverse() * lm(id).homogeneous();
+    const double true_bearing = std::atan2(local.y(), local.x());
+    // Pose 0 sees landmark 22 at about -3.117: a -0.05 error takes it past -pi.
+    const double noise = (i == 0 && id == 22) ? -0.05 : 0.01 * gauss(rng);
+    const double range = local.head<2>().norm() + 0.03 * gauss(rng);
+    const double bearing = wrapped(true_bearing + noise);
+    wrapped_one = wrapped_one || bearing > 3.0;
+    text << "EDGE_SE2_RANGE_BEARING " << i << " " << id << " " << range << " " << bearing << " "
+         << rb_info(0, 0) << " " << rb_info(0, 1) << " " << rb_info(1, 1) << "\n";
+    const Eigen::Vector2d e(local.head<2>().norm() - range, wrapped(true_bearing - bearing));
+    chi2_truth += e.dot(rb_info * e);
+  }
+  REQUIRE(wrapped_one);
+
+  const ModelDataset d = parse(text.str(), "rb.g2o");
+  REQUIRE(d.factors.size() == 5 + observations.size());
+  CHECK(countKind(d, FactorKind::RangeBearing2) == observations.size());
+
+  // The objective of the file is the one computed above (range first, bearing wrapped).
+  lslam::sim::ModelEstimate truth;
+  for (int i = 0; i < 6; ++i) truth[pose(i)] = x[i];
+  for (const auto& [id, p] : lms) truth[landmark(id)] = p;
+  CHECK(lslam::sim::chi2(d, truth) == doctest::Approx(chi2_truth).epsilon(1e-9));
+
+  lslam::sim::IncrementalOptions options;
+  options.solver.backsubstitution_tolerance = 0.0;  // exact back-substitution
+  const lslam::sim::ModelRun run = lslam::sim::runModelIncremental(d, options);
+  CHECK(run.poses == 6);
+  CHECK(run.landmarks == 3);
+  REQUIRE(run.anchor == pose(0));
+  // Landmark 22 enters at its first (wrapped) observation from pose 0, at the vertex's pose.
+  REQUIRE(run.initial.count(landmark(22)) == 1);
+  CHECK((run.initial.at(landmark(22)) - lm(22)).norm() < 0.2);
+
+  lslam::sim::BatchOptions batch_options;
+  batch_options.fixed.push_back(0);
+  const lslam::sim::ModelBatchResult batch =
+      lslam::sim::solveModelBatch(d, run.initial, batch_options);
+  REQUIRE(batch.converged);
+  const double chi2 = lslam::sim::chi2(d, run.estimate);
+  CAPTURE(chi2);
+  CAPTURE(batch.chi2);
+  CAPTURE(chi2_truth);
+  CHECK(batch.chi2 < chi2_truth);  // the optimum is below the truth's objective
+  CHECK(std::abs(chi2 - batch.chi2) <= 1e-3 * batch.chi2);
+  double worst = 0.0;
+  for (const auto& [key, value] : run.estimate) {
+    worst =
+        std::max(worst, (value.head<2>() - batch.values.at(key).head<2>()).cwiseAbs().maxCoeff());
+  }
+  CHECK(worst < 1e-3);
 }
 
 // ---- real files ----

@@ -16,6 +16,18 @@
 //                                              -> BetweenSE2 {Pose i} -> {Pose j}; information
 //                                                 from its upper triangle
 //     EDGE_SE2_XY pose lm dx dy I11 I12 I22    -> PointXY2 {Pose pose}, {Landmark lm}; z = (dx, dy)
+//     EDGE_SE2_RANGE_BEARING pose lm range bearing I11 I12 I22
+//                                              -> RangeBearing2 {Pose pose}, {Landmark lm};
+//                                                 z = (range, bearing)
+//       lslam's own record: g2o has no range-bearing edge (only EDGE_SE2_XY and the bearing-only
+//       EDGE_BEARING_SE2_XY). Ids, kinds and field counts as EDGE_SE2_XY. range is the distance
+//       from the pose to the landmark, > 0 (a zero range has no bearing); bearing the landmark's
+//       angle in radians in the pose's frame, counterclockwise from its x axis, already wrapped:
+//       in (-pi, pi], i.e. |bearing| <= 3.141592653589793 (the double nearest pi), else an error at
+//       its line (stored as read, never wrapped). The information is over the error, in this
+//       order (as model_chi2.h and lslam/factors/landmark_2d_factors.h define it):
+//         e = (|d| - range, wrap(atan2(d_y, d_x) - bearing)),   d = R^T (l - t)
+//       (e^T Omega e is the same for -e, so (range - |d|, wrap(bearing - atan2)) is equivalent).
 //     FIX id [id ...]                          -> ModelDataset::fixed
 //   g2o 3D (convention G2o; dimension 3)
 //     VERTEX_SE3:QUAT id x y z qx qy qz qw     -> ModelVertex SE3 {Pose, id}, (x y z qx qy qz qw)
@@ -115,7 +127,8 @@
 // positive definite per lslam::checkInformation, R^T R overflowing, duplicate vertex ids, an edge
 // or FIX naming an id no vertex line declares in a file with vertex lines, reported at the
 // earliest offending line): quaternion norm, kinds and roles as described above, EDGE3 pitch,
-// PARAMS_SE3OFFSET. A file that cannot be opened or read throws DatasetError(path, 0, reason).
+// EDGE_SE2_RANGE_BEARING range and bearing, PARAMS_SE3OFFSET. A file that cannot be opened or read
+// throws DatasetError(path, 0, reason).
 #include <iosfwd>
 #include <string>
 
@@ -133,13 +146,15 @@ ModelDataset parseModelDataset(std::istream& in, const std::string& name);
 // Writes g2o records: a "PARAMS_SE3OFFSET 0 0 0 0 0 0 0 1" line if there is a PointXYZ3 factor,
 // then the vertices (given order: VERTEX_SE2, VERTEX_XY, VERTEX_SE3:QUAT, VERTEX_TRACKXYZ by
 // kind), one "FIX id" line per fixed key, then the factors (given order: EDGE_SE2, EDGE_SE2_XY,
-// EDGE_SE3:QUAT, EDGE_SE3_TRACKXYZ pose pt 0 ...), each information as its upper triangle.
+// EDGE_SE2_RANGE_BEARING, EDGE_SE3:QUAT, EDGE_SE3_TRACKXYZ pose pt 0 ...), each information as its
+// upper triangle.
 // Numbers in the shortest form that reads back to the identical double (std::to_chars), so
 // write -> parseModelDataset gives the same vertices, factors (kinds, keys, measurements,
 // information), fixed keys and dimension (a dataset without vertices and factors reads back as
 // 2D); format and convention read back as g2o.
 // Throws std::invalid_argument, before writing anything, for what the reader would reject or
-// read back differently: a factor kind without a g2o record here (priors, RangeBearing2); a
+// read back differently: a factor kind without a g2o record here (priors); a RangeBearing2 whose
+// range is not > 0 or whose bearing is outside (-pi, pi] (not wrapped: written as given); a
 // BetweenSE3 of a dataset with convention Isam (its information is in Euler coordinates, see
 // EDGE3 above); records of the other dimension than ModelDataset::dimension; a value or
 // measurement of the wrong size, non-finite, or a quaternion off unit norm by more than
