@@ -284,20 +284,21 @@ TEST_CASE("worlds: deterministic for a seed, different for another") {
   }
 }
 
-TEST_CASE("worlds: the truth file reads back as the truth") {
+TEST_CASE("worlds: the dataset and the truth read back from their files as written") {
   for (const Case& c : smallWorlds()) {
     INFO(std::string(c.name) << " seed " << c.options.seed);
     const SimulatedWorld w = simulateWorld(c.kind, c.options);
-    std::stringstream file;
-    writeModelG2o(file, w.truth);
-    const ModelDataset back = parseModelDataset(file, "truth.g2o");
-    REQUIRE(back.vertices.size() == w.truth.vertices.size());
-    CHECK(back.dimension == w.truth.dimension);
-    CHECK(back.factors.empty());
-    for (std::size_t i = 0; i < back.vertices.size(); ++i) {
-      CHECK(back.vertices[i].key == w.truth.vertices[i].key);
-      CHECK(back.vertices[i].kind == w.truth.vertices[i].kind);
-      CHECK(back.vertices[i].value == w.truth.vertices[i].value);
+    std::stringstream truth_file, data_file;
+    writeModelG2o(truth_file, w.truth);
+    writeModelG2o(data_file, w.dataset);
+    const ModelDataset truth = parseModelDataset(truth_file, "truth.g2o");
+    const ModelDataset data = parseModelDataset(data_file, "data.g2o");
+    CHECK(truth.dimension == w.truth.dimension);
+    CHECK(truth.factors.empty());
+    CHECK(sameDataset(truth, w.truth));
+    CHECK(sameDataset(data, w.dataset));
+    for (std::size_t i = 0; i < truth.vertices.size(); ++i) {
+      CHECK(truth.vertices[i].kind == w.truth.vertices[i].kind);
     }
   }
 }
