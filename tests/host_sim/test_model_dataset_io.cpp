@@ -25,6 +25,7 @@
 #include <utility>
 #include <vector>
 
+#include "dataset_files.h"
 #include "host_sim/dataset_io.h"
 #include "host_sim/model_batch_solver.h"
 #include "host_sim/model_chi2.h"
@@ -44,6 +45,8 @@ using lslam::sim::VariableKey;
 using lslam::sim::VariableKind;
 using lslam::sim::VariableRole;
 using lslam::sim::writeModelG2o;
+using lslam::sim::test::datasetPath;
+using lslam::sim::test::present;
 
 namespace {
 
@@ -158,16 +161,6 @@ ModelDataset roundTrip(const ModelDataset& d) {
   std::ostringstream out;
   writeModelG2o(out, d);
   return parse(out.str(), "written.g2o");
-}
-
-std::string datasetPath(const std::string& relative) {
-  return std::string(LSLAM_DATASETS_DIR) + "/" + relative;
-}
-
-bool present(const std::string& path) {
-  if (std::filesystem::exists(path)) return true;
-  MESSAGE("SKIP: " << path << " absent");
-  return false;
 }
 
 std::size_t countKind(const ModelDataset& d, FactorKind kind) {
