@@ -14,6 +14,7 @@
 #include <cstdio>
 #include <fstream>
 #include <iostream>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -22,10 +23,12 @@
 #include "host_sim/chi2.h"
 #include "host_sim/cli_args.h"
 #include "host_sim/dataset_io.h"
+#include "host_sim/map_plot.h"
 #include "host_sim/model_batch_solver.h"
 #include "host_sim/model_dataset_io.h"
 #include "host_sim/model_run.h"
 #include "host_sim/synthetic.h"
+#include "host_sim/trajectory_error.h"
 #include "host_sim/worlds.h"
 
 namespace {
@@ -35,6 +38,7 @@ using namespace lslam::sim;
 constexpr const char* kUsage =
     "usage: lslam-sim run DATASET [--order online|file] [--solve-every N] [--json]\n"
     "                 [--csv STEPS.csv] [--out ESTIMATE.g2o] [--report REPORT.json]\n"
+    "                 [--truth TRUTH] [--plot MAP.svg]\n"
     "                 [--relinearize-threshold T] [--relinearize-skip N]\n"
     "                 [--relinearize-urgent T] [--relinearize-partial T]\n"
     "                 [--urgent-iterations N]\n"
@@ -48,40 +52,6 @@ constexpr const char* kUsage =
     "       lslam-sim simulate WORLD OUT.g2o [--steps N] [--seed S] [parameters]\n"
     "                 (WORLD: grid2d, sphere3d, garage3d, points3d; lslam-sim simulate --help)\n"
     "       lslam-sim generate OUT.g2o [--poses N] [--seed S]   (simulate grid2d, no landmarks)\n";
-
-constexpr const char* kSimulateHelp =
-    "lslam-sim simulate WORLD OUT.g2o [options]\n"
-    "  Writes a noisy g2o dataset to OUT.g2o and its ground truth (the true poses and landmarks "
-    "as\n"
-    "  vertices) to OUT.truth.g2o. Deterministic for a seed.\n"
-    "worlds (default steps):\n"
-    "  grid2d    Manhattan grid, point landmarks seen within a sensor range (1000)\n"
-    "  sphere3d  rings of latitude on a sphere, a loop closure one ring back per pose (2500)\n"
-    "  garage3d  rectangular floors joined by ramps, driven up and down again (1600)\n"
-    "  points3d  laps of a wavy circle observing 3D point landmarks within range (1000)\n"
-    "options (defaults in brackets; [world] where a world differs):\n"
-    "  --steps N                 poses (>= 2)\n"
-    "  --seed S                  random seed [1]\n"
-    "  --sigma-translation M     odometry and loop-closure noise per axis, m [0.05]\n"
-    "  --sigma-rotation R        rotation noise, rad (3D: per axis) [0.01]\n"
-    "  --sigma-landmark M        landmark position noise per axis, m [0.05]\n"
-    "  --sigma-range M           range noise, m [0.05]\n"
-    "  --sigma-bearing R         bearing noise, rad [0.01]\n"
-    "  --loop-probability P      chance a pose with candidates closes loops\n"
-    "                            [0.5; sphere3d 1; garage3d 0.8; points3d 0.3]\n"
-    "  --max-loops N             loop closures per pose at most [2; sphere3d 1]\n"
-    "  --loop-radius M           candidate distance, m (grid2d, garage3d) [1]\n"
-    "  --loop-separation N       candidates at least N poses back (grid2d, garage3d) [10]\n"
-    "  --outlier-rate P          chance a pose gets one wrong loop closure [0]\n"
-    "  --landmarks N             landmarks scattered (grid2d, points3d) [200; points3d 60]\n"
-    "  --sensor-range M          landmarks observed within, m [1.5; points3d 4]\n"
-    "  --max-observations N      nearest landmarks observed per pose at most [3]\n"
-    "  --landmark-measurement K  grid2d: position (EDGE_SE2_XY) or range-bearing\n"
-    "                            (EDGE_SE2_RANGE_BEARING) [position]\n"
-    "  --grid-size N             grid2d: intersections per side [10]\n"
-    "  --turn-probability P      grid2d: chance to turn at an intersection [0.3]\n"
-    "  --radius M                sphere3d, points3d: radius, m [10]\n"
-    "  --floors N                garage3d: floors [4]\n";
 
 int usage() {
   std::fputs(kUsage, stderr);
@@ -135,6 +105,7 @@ struct RunSummary {
          loop_max = 0;
   lslam::Index reorders = 0, factor_blocks = 0;
   std::size_t solver_bytes = 0;
+  std::optional<TrajectoryError> truth;  // with --truth
 };
 
 void setStepTimes(const std::vector<StepRecord>& steps, RunSummary& out) {
@@ -169,7 +140,15 @@ std::string toJson(const RunArgs& args, const RunSummary& r) {
      << ", \"max\": " << r.odometry_max << "}, \"loop_step_ms\": {\"median\": " << r.loop_median
      << ", \"max\": " << r.loop_max << "}, \"reorders\": " << r.reorders
      << ", \"factor_blocks\": " << r.factor_blocks << ", \"solver_bytes\": " << r.solver_bytes
-     << ", \"peak_rss_kb\": " << peakRssKb() << "}";
+     << ", \"peak_rss_kb\": " << peakRssKb();
+  if (r.truth) {
+    js << ", \"truth\": " << jsonString(args.truth) << ", \"truth_poses\": " << r.truth->poses
+       << ", \"truth_landmarks\": " << r.truth->landmarks
+       << ", \"ate_position_rmse\": " << r.truth->ate_position_rmse
+       << ", \"ate_rotation_rmse_deg\": " << r.truth->ate_rotation_rmse_deg
+       << ", \"landmark_rmse\": " << r.truth->landmark_rmse;
+  }
+  js << "}";
   return js.str();
 }
 
@@ -192,6 +171,15 @@ void printSummary(const RunArgs& args, const RunSummary& r) {
   std::printf("reorders           %d, factor blocks %d, solver object %zu bytes, peak RSS %ld kB\n",
               static_cast<int>(r.reorders), static_cast<int>(r.factor_blocks), r.solver_bytes,
               peakRssKb());
+  if (r.truth) {
+    std::printf(
+        "ATE                position %.4g m, rotation %.4g deg (%zu poses, rigid alignment)\n",
+        r.truth->ate_position_rmse, r.truth->ate_rotation_rmse_deg, r.truth->poses);
+    if (r.truth->landmarks > 0) {
+      std::printf("landmark RMSE      %.4g m (%zu landmarks, same alignment)\n",
+                  r.truth->landmark_rmse, r.truth->landmarks);
+    }
+  }
 }
 
 // The report (file, JSON on stdout or the summary) once the run's own outputs are written.
@@ -296,8 +284,18 @@ int runModel(const RunArgs& args, const ModelDataset& d) {
     r.max_position_diff = std::max(r.max_position_diff, (value.head(n) - other.head(n)).norm());
   }
   setRun(inc, r);
+  ModelEstimate truth;
+  if (!args.truth.empty()) {
+    truth = readGroundTruth(args.truth);
+    r.truth = trajectoryError(inc.estimate, truth, d.dimension, variableKinds(d));
+  }
   if (!args.csv.empty()) writeCsv(args.csv, inc.steps);
   if (!args.out.empty()) writeModelEstimate(args.out, d, inc);
+  if (!args.plot.empty()) {
+    const ModelEstimate aligned = r.truth ? inEstimateFrame(truth, r.truth->alignment) : truth;
+    writeMapSvg(args.plot,
+                MapPlotInput{&d, &inc.estimate, r.truth ? &aligned : nullptr, args.dataset});
+  }
   return report(args, r);
 }
 
@@ -374,7 +372,7 @@ int main(int argc, char** argv) {
     }
     if (command == "simulate") {
       if (!rest.empty() && isHelp(rest.front())) {
-        std::fputs(kSimulateHelp, stdout);
+        std::fputs(simulateHelp(), stdout);
         return 0;
       }
       SimulateArgs args;

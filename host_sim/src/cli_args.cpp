@@ -197,6 +197,8 @@ std::optional<std::string> parseRunArgs(const std::vector<std::string>& argv, Ru
       path("--csv", args.csv),
       path("--out", args.out),
       path("--report", args.report),
+      path("--truth", args.truth),
+      path("--plot", args.plot),
       integer("--prepare-min-products", so.prepare_ordering_min_products, 0, "an integer >= 0"),
       real("--relinearize-threshold", so.relinearize_threshold),
       real("--relinearize-urgent", so.relinearize_urgent_threshold),
@@ -224,20 +226,11 @@ std::optional<std::string> parseGenerateArgs(const std::vector<std::string>& arg
   return parseCommand(argv, options, "OUT.g2o", args.out);
 }
 
-std::optional<std::string> parseSimulateArgs(const std::vector<std::string>& argv,
-                                             SimulateArgs& args) {
-  if (argv.empty() || argv[0].empty() || argv[0][0] == '-') {
-    return std::string("missing WORLD (grid2d, sphere3d, garage3d or points3d)");
-  }
-  const auto kind = parseWorldKind(argv[0]);
-  if (!kind) {
-    return "unknown world " + jsonString(argv[0]) +
-           " (expected grid2d, sphere3d, garage3d or points3d)";
-  }
-  args.world = *kind;
-  WorldOptions& o = args.options;
-  o = defaultWorldOptions(*kind);
-  const std::vector<Option> options = {
+namespace {
+
+// The options of `simulate`, writing into `o`.
+std::vector<Option> simulateOptions(WorldOptions& o) {
+  return {
       integer("--steps", o.steps, 2, "an integer >= 2"),
       integer("--seed", o.seed, 0, "an integer in 0..4294967295"),
       positiveReal("--sigma-translation", o.sigma_translation),
@@ -267,8 +260,68 @@ std::optional<std::string> parseSimulateArgs(const std::vector<std::string>& arg
       positiveReal("--radius", o.radius),
       integer("--floors", o.floors, 1, "an integer >= 1"),
   };
+}
+
+}  // namespace
+
+std::optional<std::string> parseSimulateArgs(const std::vector<std::string>& argv,
+                                             SimulateArgs& args) {
+  if (argv.empty() || argv[0].empty() || argv[0][0] == '-') {
+    return std::string("missing WORLD (grid2d, sphere3d, garage3d or points3d)");
+  }
+  const auto kind = parseWorldKind(argv[0]);
+  if (!kind) {
+    return "unknown world " + jsonString(argv[0]) +
+           " (expected grid2d, sphere3d, garage3d or points3d)";
+  }
+  args.world = *kind;
+  args.options = defaultWorldOptions(*kind);
+  const std::vector<Option> options = simulateOptions(args.options);
   const std::vector<std::string> rest(argv.begin() + 1, argv.end());
   return parseCommand(rest, options, "OUT.g2o", args.out);
+}
+
+const char* simulateHelp() {
+  return "lslam-sim simulate WORLD OUT.g2o [options]\n"
+         "  Writes a noisy g2o dataset to OUT.g2o and its ground truth (the true poses and "
+         "landmarks "
+         "as\n"
+         "  vertices) to OUT.truth.g2o. Deterministic for a seed.\n"
+         "worlds (default steps):\n"
+         "  grid2d    Manhattan grid, point landmarks seen within a sensor range (1000)\n"
+         "  sphere3d  rings of latitude on a sphere, a loop closure one ring back per pose (2500)\n"
+         "  garage3d  rectangular floors joined by ramps, driven up and down again (1600)\n"
+         "  points3d  laps of a wavy circle observing 3D point landmarks within range (1000)\n"
+         "options (defaults in brackets; [world] where a world differs):\n"
+         "  --steps N                 poses (>= 2)\n"
+         "  --seed S                  random seed [1]\n"
+         "  --sigma-translation M     odometry and loop-closure noise per axis, m [0.05]\n"
+         "  --sigma-rotation R        rotation noise, rad (3D: per axis) [0.01]\n"
+         "  --sigma-landmark M        landmark position noise per axis, m [0.05]\n"
+         "  --sigma-range M           range noise, m [0.05]\n"
+         "  --sigma-bearing R         bearing noise, rad [0.01]\n"
+         "  --loop-probability P      chance a pose with candidates closes loops\n"
+         "                            [0.5; sphere3d 1; garage3d 0.8; points3d 0.3]\n"
+         "  --max-loops N             loop closures per pose at most [2; sphere3d 1]\n"
+         "  --loop-radius M           candidate distance, m (grid2d, garage3d) [1]\n"
+         "  --loop-separation N       candidates at least N poses back (grid2d, garage3d) [10]\n"
+         "  --outlier-rate P          chance a pose gets one wrong loop closure [0]\n"
+         "  --landmarks N             landmarks scattered (grid2d, points3d) [200; points3d 60]\n"
+         "  --sensor-range M          landmarks observed within, m [1.5; points3d 4]\n"
+         "  --max-observations N      nearest landmarks observed per pose at most [3]\n"
+         "  --landmark-measurement K  grid2d: position (EDGE_SE2_XY) or range-bearing\n"
+         "                            (EDGE_SE2_RANGE_BEARING) [position]\n"
+         "  --grid-size N             grid2d: intersections per side [10]\n"
+         "  --turn-probability P      grid2d: chance to turn at an intersection [0.3]\n"
+         "  --radius M                sphere3d, points3d: radius, m [10]\n"
+         "  --floors N                garage3d: floors [4]\n";
+}
+
+std::vector<std::string> simulateOptionNames() {
+  WorldOptions unused;
+  std::vector<std::string> names;
+  for (const Option& o : simulateOptions(unused)) names.push_back(o.name);
+  return names;
 }
 
 }  // namespace lslam::sim

@@ -196,6 +196,24 @@ RigidAlignment alignRigid(const std::vector<Eigen::VectorXd>& estimate,
   return a;
 }
 
+ModelEstimate inEstimateFrame(const ModelEstimate& truth, const RigidAlignment& alignment) {
+  const auto dim = alignment.rotation.rows();
+  const Eigen::MatrixXd rt = alignment.rotation.transpose();
+  ModelEstimate out;
+  for (const auto& [key, value] : truth) {
+    Eigen::VectorXd v = value;
+    v.head(dim) = rt * (value.head(dim) - alignment.translation);
+    if (key.role == VariableRole::Pose && dim == 2) {
+      v[2] = wrapAngle(value[2] - std::atan2(alignment.rotation(1, 0), alignment.rotation(0, 0)));
+    } else if (key.role == VariableRole::Pose) {
+      const Eigen::Quaterniond q(Eigen::Matrix3d(rt) * geometry::quat(value.data()));
+      v.tail<4>() << q.x(), q.y(), q.z(), q.w();
+    }
+    out[key] = v;
+  }
+  return out;
+}
+
 TrajectoryError trajectoryError(const ModelEstimate& estimate, const ModelEstimate& truth,
                                 int dimension, const Kinds& kinds) {
   const Matches m = matchKeys(estimate, truth, dimension, kinds);

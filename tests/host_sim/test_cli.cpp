@@ -207,3 +207,23 @@ TEST_CASE("simulate: WORLD first, then the rules of the other commands") {
   CHECK(args.options.grid_size == 7);
   CHECK(args.options.landmarks == 0);
 }
+
+TEST_CASE("simulate --help documents every option simulate takes") {
+  const std::string help = lslam::sim::simulateHelp();
+  const std::vector<std::string> names = lslam::sim::simulateOptionNames();
+  CHECK(names.size() >= 20);
+  for (const std::string& name : names) {
+    INFO(name);
+    CHECK(help.find("  " + name + " ") != std::string::npos);
+    // ... and simulate takes it (with a valid value for each).
+    const std::string value = name == "--landmark-measurement" ? "range-bearing"
+                              : name == "--steps" || name == "--floors" || name == "--grid-size" ||
+                                      name == "--loop-separation"
+                                  ? "3"
+                                  : "1";
+    CHECK(simulateError({"grid2d", "out.g2o", name, value}).empty());
+  }
+  for (const char* world : {"grid2d", "sphere3d", "garage3d", "points3d"}) {
+    CHECK(help.find(std::string("  ") + world + " ") != std::string::npos);
+  }
+}

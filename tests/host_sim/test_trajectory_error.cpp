@@ -162,6 +162,19 @@ void exactMisalignmentCases(int dimension) {
     CHECK(e.ate_rotation_rmse_deg < 1e-9);
     CHECK(e.landmark_rmse < 1e-9);
     checkInverseOfMotion(e.alignment, motion, dimension);
+    // The truth carried back into the estimate's frame is the estimate.
+    const ModelEstimate back = inEstimateFrame(truth.values, e.alignment);
+    REQUIRE(back.size() == estimate.size());
+    for (const auto& [key, value] : estimate) {
+      const Eigen::VectorXd& b = back.at(key);
+      CHECK((b.head(dimension) - value.head(dimension)).norm() < 1e-9);
+      if (key.role == VariableRole::Landmark) continue;
+      if (dimension == 2) {
+        CHECK(std::abs(std::remainder(b[2] - value[2], 2.0 * kPi)) < 1e-9);
+      } else {  // the same rotation: q or -q
+        CHECK(std::abs(std::abs(b.tail<4>().dot(value.tail<4>())) - 1.0) < 1e-9);
+      }
+    }
   }
 }
 

@@ -36,6 +36,8 @@ struct RunArgs {
   int solve_every = 1;
   bool json = false;
   std::string csv, out, report;  // empty: not written
+  std::string truth;             // ground truth to score against (empty: none)
+  std::string plot;              // the map as SVG (empty: not drawn)
   SolverOptions solver;
 };
 
@@ -65,5 +67,9 @@ std::optional<std::string> parseGenerateArgs(const std::vector<std::string>& arg
 // WORLD must come first (its defaults are the options' starting values); then as above.
 std::optional<std::string> parseSimulateArgs(const std::vector<std::string>& argv,
                                              SimulateArgs& args);
+// `lslam-sim simulate --help`: the worlds and every option with its default; and the names of
+// the options parseSimulateArgs takes (each one the help documents).
+const char* simulateHelp();
+std::vector<std::string> simulateOptionNames();
 
 }  // namespace lslam::sim

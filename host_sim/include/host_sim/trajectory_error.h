@@ -60,6 +60,11 @@ TrajectoryError trajectoryError(
     const ModelEstimate& estimate, const ModelEstimate& truth, int dimension,
     const std::unordered_map<VariableKey, VariableKind, VariableKeyHash>& kinds);
 
+// `truth` carried into the estimate's frame by the inverse of `alignment` (p -> R^T (p - t),
+// orientations rotated by R^T): what a plot draws beside the estimate. Kinds by role and the
+// alignment's dimension (Pose: SE2/SE3, Landmark: Point2/Point3).
+ModelEstimate inEstimateFrame(const ModelEstimate& truth, const RigidAlignment& alignment);
+
 // The ground truth a dataset gives: its vertices' values if it has vertices (e.g. a `*.truth.g2o`
 // written by the simulator); else, for an edge-only file (the noise-free iSAM measurement files of
 // ../shared/datasets/groundtruth/), its poses chained along the between factors in file order: the

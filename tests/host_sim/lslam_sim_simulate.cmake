@@ -1,0 +1,43 @@
+# lslam-sim end to end on a simulated world: `simulate` writes the dataset and its truth, `run
+# --truth --plot --json` prints one JSON object with the ground-truth keys and draws the map.
+#   cmake -DLSLAM_SIM=path/to/lslam-sim -DWORK=scratch/dir -P lslam_sim_simulate.cmake
+
+function(run_ok)
+  execute_process(COMMAND "${LSLAM_SIM}" ${ARGN} RESULT_VARIABLE status OUTPUT_VARIABLE out
+                  ERROR_VARIABLE err)
+  if(NOT status EQUAL 0)
+    string(JOIN " " line ${ARGN})
+    message(FATAL_ERROR "lslam-sim ${line}: exit status ${status}, stderr:\n${err}")
+  endif()
+  set(stdout "${out}" PARENT_SCOPE)
+endfunction()
+
+file(REMOVE_RECURSE "${WORK}")
+file(MAKE_DIRECTORY "${WORK}")
+foreach(world grid2d points3d)
+  run_ok(simulate ${world} "${WORK}/${world}.g2o" --steps 150 --seed 4)
+  foreach(file "${WORK}/${world}.g2o" "${WORK}/${world}.truth.g2o")
+    if(NOT EXISTS "${file}")
+      message(FATAL_ERROR "simulate ${world}: ${file} not written")
+    endif()
+  endforeach()
+  run_ok(run "${WORK}/${world}.g2o" --truth "${WORK}/${world}.truth.g2o"
+         --plot "${WORK}/${world}.svg" --json)
+  # One JSON object (string(JSON) fails on anything else), with the truth's keys, each a small
+  # positive number (metres and degrees of a 150-pose world with centimetre noise).
+  foreach(key ate_position_rmse ate_rotation_rmse_deg landmark_rmse)
+    string(JSON value ERROR_VARIABLE json_error GET "${stdout}" ${key})
+    if(json_error)
+      message(FATAL_ERROR "run ${world} --json: ${json_error}\n${stdout}")
+    endif()
+    if(NOT value GREATER 0 OR NOT value LESS 5)
+      message(FATAL_ERROR "run ${world}: ${key} = ${value}")
+    endif()
+  endforeach()
+  file(READ "${WORK}/${world}.svg" svg)
+  string(FIND "${svg}" "<svg" at)
+  if(at EQUAL -1)
+    message(FATAL_ERROR "run ${world} --plot: no <svg element")
+  endif()
+  message(STATUS "PASS: ${world}: simulate, run --truth --plot --json")
+endforeach()
