@@ -18,6 +18,7 @@
 #include "host_sim/model_dataset_io.h"
 #include "host_sim/model_run.h"
 #include "host_sim/synthetic.h"
+#include "host_sim/trajectory_error.h"
 #include "host_sim/worlds.h"
 
 namespace {
@@ -249,6 +250,13 @@ TEST_CASE("worlds: incremental within 0.1 % of batch; batch chi2 and error consi
     INFO("mean squared position error " << error << ", expected " << mean << " +- " << sd);
     CHECK(error > 0.0);
     CHECK(error <= mean + 6.0 * sd);
+    // The ATE aligns the estimate onto the truth with the rigid motion of least squared error:
+    // its square is at most this error (the identity is one such motion, pose 0 adds nothing).
+    const TrajectoryError ate = trajectoryError(batch.values, valuesOf(w.truth),
+                                                w.dataset.dimension, variableKinds(w.dataset));
+    CHECK(ate.poses == static_cast<std::size_t>(c.options.steps));
+    CHECK(ate.ate_position_rmse > 0.0);
+    CHECK(ate.ate_position_rmse * ate.ate_position_rmse <= error * (n / (n + 1.0)) + 1e-15);
     // Optimising beats dead reckoning.
     CHECK(error < meanSquaredPositionError(w.truth, run.initial, w.dataset.dimension));
   }
