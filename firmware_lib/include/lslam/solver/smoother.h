@@ -82,8 +82,9 @@ SolverOptions defaultSolverOptions() {
 // The options for a stream with range-bearing observations (RangeBearingSE2Factor), from `options`:
 // the bearing's derivative grows as 1 / range, so a step of a few centimetres moves a near
 // landmark's linearization point far, and a step taken there lags the optimum (simulated grid2d
-// worlds: 0.2-0.4 % above it at the Slam2D defaults). A tighter urgent bar, and re-solving within
-// the update while a candidate passes it, bring it within 0.01 %, at about twice the time.
+// worlds: 0.1-0.7 % above it at the Slam2D defaults). A tighter urgent bar, and re-solving within
+// the update while a candidate passes it, bring it within 0.02 % (either alone leaves some seeds
+// above 0.1 %), at about three times the time.
 inline SolverOptions withRangeBearingObservations(SolverOptions options) {
   options.relinearize_urgent_threshold = std::min(options.relinearize_urgent_threshold, 0.05);
   options.urgent_iterations = std::max<Index>(options.urgent_iterations, 4);
