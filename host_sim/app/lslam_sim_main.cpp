@@ -51,7 +51,8 @@ constexpr const char* kUsage =
     "                 [--reorder-top] [--no-row-updates]\n"
     "       lslam-sim simulate WORLD OUT.g2o [--steps N] [--seed S] [parameters]\n"
     "                 (WORLD: grid2d, sphere3d, garage3d, points3d; lslam-sim simulate --help)\n"
-    "       lslam-sim generate OUT.g2o [--poses N] [--seed S]   (simulate grid2d, no landmarks)\n";
+    "       lslam-sim generate OUT.g2o [--poses N] [--seed S]\n"
+    "                 (the measurements of simulate grid2d --landmarks 0 --steps N, no truth)\n";
 
 int usage() {
   std::fputs(kUsage, stderr);
@@ -146,7 +147,13 @@ std::string toJson(const RunArgs& args, const RunSummary& r) {
        << ", \"truth_landmarks\": " << r.truth->landmarks
        << ", \"ate_position_rmse\": " << r.truth->ate_position_rmse
        << ", \"ate_rotation_rmse_deg\": " << r.truth->ate_rotation_rmse_deg
-       << ", \"landmark_rmse\": " << r.truth->landmark_rmse;
+       << ", \"landmark_rmse\": ";
+    // No landmark scored is no score, not a perfect one.
+    if (r.truth->landmarks > 0) {
+      js << r.truth->landmark_rmse;
+    } else {
+      js << "null";
+    }
   }
   js << "}";
   return js.str();
@@ -263,6 +270,8 @@ int runModel(const RunArgs& args, const ModelDataset& d) {
     std::fprintf(stderr, "lslam-sim: %s: no poses/edges to run\n", args.dataset.c_str());
     return 1;
   }
+  // The truth is read before the run, so that a bad file stops it at once.
+  const ModelEstimate truth = args.truth.empty() ? ModelEstimate{} : readGroundTruth(args.truth);
   const ModelRun inc = runModelIncremental(d, incrementalOptions(args));
   if (!inc.gauge_note.empty())
     std::fprintf(stderr, "lslam-sim: note: %s\n", inc.gauge_note.c_str());
@@ -284,9 +293,7 @@ int runModel(const RunArgs& args, const ModelDataset& d) {
     r.max_position_diff = std::max(r.max_position_diff, (value.head(n) - other.head(n)).norm());
   }
   setRun(inc, r);
-  ModelEstimate truth;
   if (!args.truth.empty()) {
-    truth = readGroundTruth(args.truth);
     r.truth = trajectoryError(inc.estimate, truth, d.dimension, variableKinds(d));
   }
   if (!args.csv.empty()) writeCsv(args.csv, inc.steps);

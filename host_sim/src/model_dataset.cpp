@@ -91,4 +91,9 @@ int arity(FactorKind kind) {
   }
 }
 
+VariableKind kindOfRole(VariableRole role, int dimension) {
+  if (role == VariableRole::Pose) return dimension == 2 ? VariableKind::SE2 : VariableKind::SE3;
+  return dimension == 2 ? VariableKind::Point2 : VariableKind::Point3;
+}
+
 }  // namespace lslam::sim

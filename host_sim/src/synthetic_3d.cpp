@@ -78,21 +78,14 @@ detail::WorldDraft detail::draftLandmarkWorld3D(const Synthetic3DOptions& o) {
       w.factors.push_back(betweenFactor(o, random, i - per_lap, i, truePose(o, i - per_lap), x));
     }
     if (random.uniform() >= o.observation_probability) continue;
-    std::vector<std::pair<double, int>> in_range;  // (distance, landmark), nearest first
-    for (std::size_t k = 0; k < w.landmarks.size(); ++k) {
-      const double d = (w.landmarks[k] - x.t).norm();
-      if (d <= o.sensor_range) in_range.emplace_back(d, static_cast<int>(k));
-    }
-    std::sort(in_range.begin(), in_range.end());
-    const std::size_t n =
-        std::min(in_range.size(), static_cast<std::size_t>(o.max_observations_per_pose));
-    for (std::size_t m = 0; m < n; ++m) {
-      const int k = in_range[m].second;
+    for (const std::size_t k :
+         detail::nearestInRange(w.landmarks, x.t, 0.0, o.sensor_range,
+                                static_cast<std::size_t>(o.max_observations_per_pose))) {
       ModelFactor f;
       f.kind = FactorKind::PointXYZ3;
       f.first = {VariableRole::Pose, i};
-      f.second = {VariableRole::Landmark, k};
-      const Eigen::Vector3d l = w.landmarks[static_cast<std::size_t>(k)];
+      f.second = {VariableRole::Landmark, static_cast<std::int64_t>(k)};
+      const Eigen::Vector3d l = w.landmarks[k];
       f.measurement = x.q.conjugate() * (l - x.t) + detail::normal3(random, o.sigma_point);
       f.information = Eigen::MatrixXd::Identity(3, 3) / (o.sigma_point * o.sigma_point);
       w.factors.push_back(f);

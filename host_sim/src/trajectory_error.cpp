@@ -25,12 +25,6 @@ int kindDimension(VariableKind kind) {
   return kind == VariableKind::SE2 || kind == VariableKind::Point2 ? 2 : 3;
 }
 
-// The kind a variable of `role` has in a problem of `dimension`.
-VariableKind roleKind(VariableRole role, int dimension) {
-  if (role == VariableRole::Pose) return dimension == 2 ? VariableKind::SE2 : VariableKind::SE3;
-  return dimension == 2 ? VariableKind::Point2 : VariableKind::Point3;
-}
-
 std::string keyName(const VariableKey& k) {
   return std::string(k.role == VariableRole::Pose ? "pose " : "landmark ") + std::to_string(k.id);
 }
@@ -59,7 +53,7 @@ void checkEstimateValue(const VariableKey& key, const Eigen::VectorXd& value, in
 }
 
 void checkTruthValue(const VariableKey& key, const Eigen::VectorXd& value, int dimension) {
-  const VariableKind kind = roleKind(key.role, dimension);
+  const VariableKind kind = kindOfRole(key.role, dimension);
   if (value.size() != parameterCount(kind)) {
     fail(keyName(key) + " of the truth has " + std::to_string(value.size()) + " parameters, a " +
          std::to_string(dimension) + "D " + variableKindName(kind) + " has " +
@@ -76,9 +70,9 @@ Matches matchKeys(const ModelEstimate& estimate, const ModelEstimate& truth, int
     checkEstimateValue(key, value, dimension, kinds);
     if (truth.count(key) == 0) continue;
     const VariableKind kind = kinds.at(key);
-    if (kind != roleKind(key.role, dimension)) {
+    if (kind != kindOfRole(key.role, dimension)) {
       fail(keyName(key) + " is " + variableKindName(kind) + " in the estimate, " +
-           variableKindName(roleKind(key.role, dimension)) + " in the truth");
+           variableKindName(kindOfRole(key.role, dimension)) + " in the truth");
     }
     (isPose(kind) ? m.poses : m.landmarks).push_back(key);
   }
@@ -225,7 +219,7 @@ TrajectoryError trajectoryError(const ModelEstimate& estimate, const ModelEstima
   r.alignment = alignRigid(estimate_poses, truth_poses);
   r.ate_position_rmse = alignedPositionRmse(r.alignment, estimate_poses, truth_poses);
   r.ate_rotation_rmse_deg = rotationRmseDeg(r.alignment, estimate, truth, m.poses,
-                                            roleKind(VariableRole::Pose, dimension));
+                                            kindOfRole(VariableRole::Pose, dimension));
   if (!m.landmarks.empty()) {
     r.landmark_rmse = alignedPositionRmse(r.alignment, positions(estimate, m.landmarks, dimension),
                                           positions(truth, m.landmarks, dimension));

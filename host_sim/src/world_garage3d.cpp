@@ -27,26 +27,41 @@ std::pair<Eigen::Vector2d, Eigen::Vector2d> lapPoint(double s) {
   return {{0.0, kWidth - s}, {0.0, -1.0}};
 }
 
-// The true pose after driving `distance` metres: up the floors' laps (each lap's last side
-// climbing to the next floor, the top floor's flat), then the same way back down, and again.
+// A point of the way up at arc length u: the floors' laps, each lap's last side climbing to the
+// next floor, the top floor's flat. Its position, direction of travel (x-y) and whether it climbs.
+struct PathPoint {
+  Eigen::Vector3d position;
+  Eigen::Vector2d direction;
+  bool climbing = false;
+};
+
+PathPoint upPath(double u, int floors) {
+  const int floor = std::min(static_cast<int>(u / kLap), floors - 1);
+  const double s = u - kLap * floor;
+  const auto [xy, direction] = lapPoint(s);
+  const double ramp_start = kLap - kWidth;
+  const bool climbing = floor + 1 < floors && s >= ramp_start;
+  const double z = kFloorHeight * (floor + (climbing ? (s - ramp_start) / kWidth : 0.0));
+  return {Eigen::Vector3d(xy.x(), xy.y(), z), direction, climbing};
+}
+
+// The true pose after driving `distance` metres: up the floors, then the same way back down (a
+// U-turn on the spot at the top and at the bottom), and again.
 Pose3 garagePose(double distance, int floors) {
   const double up_length = kLap * floors;
   double u = std::fmod(distance, 2.0 * up_length);
   const bool descending = u > up_length;
   if (descending) u = 2.0 * up_length - u;
-  const int floor = std::min(static_cast<int>(u / kLap), floors - 1);
-  const double s = u - kLap * floor;
-  const auto [xy, direction] = lapPoint(s);
-  const double ramp_start = kLap - kWidth;
-  const bool on_ramp = floor + 1 < floors && s >= ramp_start;
-  const double z = kFloorHeight * (floor + (on_ramp ? (s - ramp_start) / kWidth : 0.0));
+  const PathPoint at = upPath(u, floors);
+  // It faces the way it drives next: on the way down, the stretch just before u on the way up.
+  const PathPoint ahead = descending ? upPath(std::max(0.0, u - 1e-9), floors) : at;
   const double sign = descending ? -1.0 : 1.0;
-  const double yaw = std::atan2(sign * direction.y(), sign * direction.x());
-  const double pitch = on_ramp ? sign * std::atan(kFloorHeight / kWidth) : 0.0;
+  const double yaw = std::atan2(sign * ahead.direction.y(), sign * ahead.direction.x());
+  const double pitch = ahead.climbing ? sign * std::atan(kFloorHeight / kWidth) : 0.0;
   // Nose up is a negative rotation about the robot's y axis (x forward, z up).
   const Eigen::Quaterniond q = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
                                Eigen::AngleAxisd(-pitch, Eigen::Vector3d::UnitY());
-  return {q.normalized(), Eigen::Vector3d(xy.x(), xy.y(), z)};
+  return {q.normalized(), at.position};
 }
 
 // The earlier poses pose i closes loops to (worlds.h: loop_radius, min_loop_separation,

@@ -68,23 +68,10 @@ ModelFactor observation(const WorldOptions& o, std::size_t pose, const Eigen::Ve
   return f;
 }
 
-// Below this range a bearing is ill-defined (and a range's noise may make it negative).
-constexpr double kMinimumRange = 0.5;
-
-// The landmarks pose x observes: the nearest within range (at least kMinimumRange), at most
-// max_observations_per_pose, nearest first.
-std::vector<std::size_t> visibleLandmarks(const WorldOptions& o, const Eigen::Vector3d& x,
-                                          const std::vector<Eigen::VectorXd>& landmarks) {
-  std::vector<std::pair<double, std::size_t>> in_range;
-  for (std::size_t k = 0; k < landmarks.size(); ++k) {
-    const double d = (landmarks[k] - x.head<2>()).norm();
-    if (d <= o.sensor_range && d >= kMinimumRange) in_range.emplace_back(d, k);
-  }
-  std::sort(in_range.begin(), in_range.end());
-  in_range.resize(std::min(in_range.size(), static_cast<std::size_t>(o.max_observations_per_pose)));
-  std::vector<std::size_t> visible;
-  for (const auto& [d, k] : in_range) visible.push_back(k);
-  return visible;
+// The nearest landmark a pose observes lies this far at least: below it a bearing is ill-defined
+// and a range's noise may turn it negative (6 sigma of the range's noise, at least 0.5 m).
+double minimumRange(const WorldOptions& o) {
+  return std::max(0.5, 6.0 * o.sigma_range);
 }
 
 }  // namespace
@@ -114,7 +101,10 @@ WorldDraft draftGrid2D(const WorldOptions& o) {
       w.factors.push_back(betweenOf(grid.dataset.edges[e]));
     }
     const Eigen::Vector3d x = w.poses[i];
-    for (const std::size_t k : visibleLandmarks(o, x, w.landmarks)) {
+    const Eigen::Vector2d position = x.head<2>();
+    for (const std::size_t k :
+         nearestInRange(w.landmarks, position, minimumRange(o), o.sensor_range,
+                        static_cast<std::size_t>(o.max_observations_per_pose))) {
       w.factors.push_back(observation(o, i, x, k, w.landmarks[k], random));
     }
   }

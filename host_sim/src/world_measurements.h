@@ -4,8 +4,12 @@
 // host_sim/src.
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
+#include <utility>
+#include <vector>
 
 #include "host_sim/model_dataset.h"
 #include "lslam/geometry/angle.h"
@@ -54,6 +58,23 @@ inline Eigen::Vector3d normal3(PortableRandom& random, double sigma) {
 
 inline VariableKey poseKey(std::int64_t id) {
   return {VariableRole::Pose, id};
+}
+
+// The indices of the points within [min_range, max_range] of `x`, nearest first (ties by index),
+// at most max_count of them: what a range-limited sensor reports.
+template <class Points, class Position>
+std::vector<std::size_t> nearestInRange(const Points& points, const Position& x, double min_range,
+                                        double max_range, std::size_t max_count) {
+  std::vector<std::pair<double, std::size_t>> in_range;
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    const double d = (points[k] - x).norm();
+    if (d >= min_range && d <= max_range) in_range.emplace_back(d, k);
+  }
+  std::sort(in_range.begin(), in_range.end());
+  in_range.resize(std::min(in_range.size(), max_count));
+  std::vector<std::size_t> nearest;
+  for (const auto& entry : in_range) nearest.push_back(entry.second);
+  return nearest;
 }
 
 // Between factor from -> to of SE3 with measurement Z = rel exp(dt, dr) (translation noise in

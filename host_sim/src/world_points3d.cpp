@@ -18,7 +18,7 @@ WorldDraft draftPoints3D(const WorldOptions& o) {
   p.landmarks = o.landmarks;
   p.seed = o.seed;
   p.radius = o.radius;
-  p.loop_probability = o.loop_probability;
+  p.loop_probability = o.max_loops_per_pose > 0 ? o.loop_probability : 0.0;
   p.observation_probability = 1.0;
   p.max_observations_per_pose = o.max_observations_per_pose;
   p.sensor_range = o.sensor_range;

@@ -69,7 +69,7 @@ Eigen::Vector3d positionOf(const WorldDraft& w, std::size_t i) {
 bool addOutlier(const WorldOptions& o, const WorldDraft& w, std::size_t i,
                 const ModelFactor& odometry, PortableRandom& random,
                 std::vector<ModelFactor>& out) {
-  const double far = 5.0 * o.loop_radius + 5.0;
+  const double far = wrongLoopClosureDistance(o);
   std::vector<std::size_t> candidates;
   for (std::size_t j = 0; j + static_cast<std::size_t>(o.min_loop_separation) <= i; ++j) {
     if ((positionOf(w, j) - positionOf(w, i)).norm() > far) candidates.push_back(j);
@@ -122,13 +122,6 @@ void addOutliers(const WorldOptions& o, WorldDraft& w, std::vector<std::size_t>&
   w.factors = std::move(factors);
 }
 
-VariableKind poseKind(int dimension) {
-  return dimension == 2 ? VariableKind::SE2 : VariableKind::SE3;
-}
-VariableKind pointKind(int dimension) {
-  return dimension == 2 ? VariableKind::Point2 : VariableKind::Point3;
-}
-
 ModelDataset emptyDataset(const std::string& name, int dimension) {
   ModelDataset d;
   d.name = name;
@@ -154,17 +147,18 @@ SimulatedWorld finish(const WorldDraft& w, std::vector<std::size_t> outliers) {
     }
     out.dataset.factors.push_back(f);
   }
-  const VariableKind pose = poseKind(w.dimension);
+  const VariableKind pose = kindOfRole(VariableRole::Pose, w.dimension);
   for (std::int64_t i = 0; i < poses; ++i) {
     out.truth.vertices.push_back(
         {detail::poseKey(i), pose, w.poses[static_cast<std::size_t>(i)], 0});
   }
   std::vector<ModelVertex> landmarks(id_of.size());
   for (const auto& [index, id] : id_of) {
-    landmarks[static_cast<std::size_t>(id - poses)] = {{VariableRole::Landmark, id},
-                                                       pointKind(w.dimension),
-                                                       w.landmarks[static_cast<std::size_t>(index)],
-                                                       0};
+    landmarks[static_cast<std::size_t>(id - poses)] = {
+        {VariableRole::Landmark, id},
+        kindOfRole(VariableRole::Landmark, w.dimension),
+        w.landmarks[static_cast<std::size_t>(index)],
+        0};
   }
   out.truth.vertices.insert(out.truth.vertices.end(), landmarks.begin(), landmarks.end());
   // Dead reckoning from the true first pose.
@@ -183,6 +177,10 @@ std::int64_t detail::newestPose(const ModelFactor& f) {
   if (arity(f.kind) == 1) return f.first.role == VariableRole::Pose ? f.first.id : -1;
   if (f.second.role == VariableRole::Landmark) return f.first.id;
   return std::max(f.first.id, f.second.id);
+}
+
+double wrongLoopClosureDistance(const WorldOptions& o) {
+  return 2.0 * o.loop_radius + 1.0;
 }
 
 std::optional<WorldKind> parseWorldKind(const std::string& name) {

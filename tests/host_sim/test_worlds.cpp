@@ -249,6 +249,7 @@ TEST_CASE("worlds: incremental within 0.1 % of batch; batch chi2 and error consi
     const double error = meanSquaredPositionError(w.truth, batch.values, w.dataset.dimension);
     INFO("mean squared position error " << error << ", expected " << mean << " +- " << sd);
     CHECK(error > 0.0);
+    CHECK(error >= mean - 6.0 * sd);
     CHECK(error <= mean + 6.0 * sd);
     // The ATE aligns the estimate onto the truth with the rigid motion of least squared error:
     // its square is at most this error (the identity is one such motion, pose 0 adds nothing).
@@ -312,30 +313,53 @@ TEST_CASE("worlds: the dataset and the truth read back from their files as writt
 }
 
 TEST_CASE("worlds: wrong loop closures join far poses, and leave the other factors as they were") {
-  for (const WorldKind kind : {WorldKind::Grid2D, WorldKind::Garage3D, WorldKind::Points3D}) {
+  for (const WorldKind kind :
+       {WorldKind::Grid2D, WorldKind::Sphere3D, WorldKind::Garage3D, WorldKind::Points3D}) {
     INFO(worldKindName(kind));
     WorldOptions o = defaultWorldOptions(kind);
-    o.steps = 300;
+    o.steps = 400;
     const SimulatedWorld clean = simulateWorld(kind, o);
-    o.outlier_rate = 0.1;
+    o.outlier_rate = 0.2;
     const SimulatedWorld dirty = simulateWorld(kind, o);
-    REQUIRE(!dirty.outliers.empty());
-    // Eligible poses: those at least min_loop_separation after the first (all have far poses in
-    // these worlds after the first few): a binomial count, within 5 standard deviations.
-    const double eligible = o.steps - o.min_loop_separation;
-    const double expected = eligible * o.outlier_rate;
-    CHECK(std::abs(static_cast<double>(dirty.outliers.size()) - expected) <=
-          5.0 * std::sqrt(expected * (1.0 - o.outlier_rate)) + 10.0);
-    std::vector<ModelFactor> kept;
     const ModelEstimate truth = valuesOf(dirty.truth);
+    const int dim = dirty.dataset.dimension;
+    const double far = wrongLoopClosureDistance(o);
+    const auto distance = [&](std::int64_t a, std::int64_t b) {
+      return (truth.at({VariableRole::Pose, a}).head(dim) -
+              truth.at({VariableRole::Pose, b}).head(dim))
+          .norm();
+    };
+    // Eligible poses: those with an earlier pose, min_loop_separation back, farther than `far`.
+    // Each gets a wrong loop closure with probability outlier_rate: a binomial count.
+    double eligible = 0.0;
+    for (int i = o.min_loop_separation; i < o.steps; ++i) {
+      for (int j = 0; j + o.min_loop_separation <= i; ++j) {
+        if (distance(i, j) > far) {
+          ++eligible;
+          break;
+        }
+      }
+    }
+    const double expected = eligible * o.outlier_rate;
+    INFO(dirty.outliers.size() << " wrong loop closures, expected " << expected);
+    CHECK(eligible >= 0.8 * (o.steps - o.min_loop_separation));
+    CHECK(std::abs(static_cast<double>(dirty.outliers.size()) - expected) <=
+          5.0 * std::sqrt(expected * (1.0 - o.outlier_rate)));
+    std::vector<ModelFactor> kept;
+    const auto odometry = std::find_if(
+        dirty.dataset.factors.begin(), dirty.dataset.factors.end(), [](const ModelFactor& f) {
+          return f.kind == FactorKind::BetweenSE2 || f.kind == FactorKind::BetweenSE3;
+        });
     for (std::size_t i = 0, k = 0; i < dirty.dataset.factors.size(); ++i) {
       const ModelFactor& f = dirty.dataset.factors[i];
       if (k < dirty.outliers.size() && dirty.outliers[k] == i) {
         ++k;
-        const int dim = dirty.dataset.dimension;
-        CHECK((truth.at(f.first).head(dim) - truth.at(f.second).head(dim)).norm() >
-              5.0 * o.loop_radius + 5.0);
-        CHECK(f.first.id < f.second.id);
+        // Far apart in truth, at least min_loop_separation apart in time, a plausible measurement
+        // (within loop_radius) with the odometry's information.
+        CHECK(distance(f.first.id, f.second.id) > far);
+        CHECK(f.first.id + o.min_loop_separation <= f.second.id);
+        CHECK(f.measurement.head(dim).norm() <= o.loop_radius);
+        CHECK(f.information == odometry->information);
         continue;
       }
       kept.push_back(f);
@@ -384,10 +408,20 @@ TEST_CASE("worlds: geometry of each world") {
   garage.steps = 800;
   garage.floors = 3;
   int top = 0;
-  for (const ModelVertex& v : simulateWorld(WorldKind::Garage3D, garage).truth.vertices) {
-    CHECK(v.value[2] >= -1e-12);
-    CHECK(v.value[2] <= 6.0 + 1e-12);
-    if (v.value[2] > 6.0 - 1e-9) ++top;
+  const std::vector<ModelVertex> floors = simulateWorld(WorldKind::Garage3D, garage).truth.vertices;
+  for (std::size_t i = 0; i < floors.size(); ++i) {
+    const Eigen::VectorXd& v = floors[i].value;
+    CHECK(v[2] >= -1e-12);
+    CHECK(v[2] <= 6.0 + 1e-12);
+    if (v[2] > 6.0 - 1e-9) ++top;
+    if (i == 0) continue;
+    // It drives forward or back (the U-turns), never sideways: no lateral step in its own frame.
+    const Eigen::Quaterniond q(v[6], v[3], v[4], v[5]);
+    const Eigen::VectorXd& p = floors[i - 1].value;
+    const Eigen::Quaterniond qp(p[6], p[3], p[4], p[5]);
+    const Eigen::Vector3d step = qp.conjugate() * (v.head<3>() - p.head<3>());
+    INFO("pose " << i);
+    CHECK(std::abs(step.y()) < 1e-9);
   }
   CHECK(top > 0);  // reaches the top floor
   // Landmarks: every observed one exists, and each lies within the sensor's range of its pose.

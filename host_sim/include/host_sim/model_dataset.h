@@ -45,6 +45,9 @@ struct VariableKeyHash {
   }
 };
 
+// The kind of a variable of `role` in a model of `dimension` (2 or 3): SE2/SE3 or Point2/Point3.
+VariableKind kindOfRole(VariableRole role, int dimension);
+
 enum class FactorKind {
   PriorSE2,       // z: SE2; variables: {pose}
   BetweenSE2,     // z: SE2 of xj in xi's frame; {xi, xj}

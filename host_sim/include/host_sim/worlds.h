@@ -11,7 +11,8 @@
 //             turns, loop closures to poses within loop_radius), plus `landmarks` points scattered
 //             uniformly over the grid (margin 1 m), observed within sensor_range as a position in
 //             the robot frame (EDGE_SE2_XY) or as range and bearing (EDGE_SE2_RANGE_BEARING).
-//             With landmarks 0 and outlier_rate 0 its factors are those `lslam-sim generate` writes.
+//             With landmarks 0 and outlier_rate 0 its factors are those `lslam-sim generate`
+//             writes.
 //   sphere3d  sphere2500-like: rings of latitude on a sphere of `radius`, about sqrt(steps) poses
 //             per ring, driven ring after ring; each pose closes a loop to the pose one ring
 //             earlier at the same longitude (with loop_probability; max_loops_per_pose 0: none).
@@ -19,10 +20,13 @@
 //             lap's last side a ramp to the next floor; the robot drives up to the top and back
 //             down, again and again, closing loops to earlier poses within loop_radius on the same
 //             floor (at most max_loops_per_pose per pose, with loop_probability).
-//   points3d  the 3D landmark world of synthetic_3d.h (laps of a wavy circle of `radius`, one lap
-//             per 100 poses; a loop closure one lap back with loop_probability), observing the
-//             nearest of `landmarks` points within sensor_range as positions in the robot frame
-//             (EDGE_SE3_TRACKXYZ).
+//   points3d  the 3D landmark world of synthetic_3d.h: steps / 100 laps (at least one) of a wavy
+//             circle of `radius`, growing 0.3 m a lap; from the second lap on, a loop closure to
+//             the pose one lap back with loop_probability (max_loops_per_pose 0: none); observing
+//             the nearest of `landmarks` points within sensor_range as positions in the robot
+//             frame (EDGE_SE3_TRACKXYZ).
+// Landmarks nearer than max(0.5 m, 6 sigma_range) are not observed in grid2d (a bearing is
+// ill-defined at the robot, and a range's noise must not make it negative).
 //
 // NOISE (zero-mean Gaussian, independent; the information written is the inverse covariance of
 // the noise in the file's error coordinates, so chi2 at the optimum follows a chi-square law):
@@ -31,9 +35,10 @@
 //     diag(1/st^2 x3, 4/sr^2 x3) (g2o's quaternion-vector coordinates are dr / 2);
 //   landmark position in the robot frame: + N(0, sl^2 I); range-bearing: + N(0, diag(sg^2, sb^2)).
 // OUTLIERS: with probability outlier_rate, a pose (at least min_loop_separation after the first)
-// gets one wrong loop closure: to a pose farther than 5 loop_radius (+ 5 m) from it, measured as
-// a plausible loop closure (a relative pose within loop_radius, any heading; 3D: any yaw) with the
-// odometry's information. They are listed in SimulatedWorld::outliers.
+// gets one wrong loop closure: to a pose at least min_loop_separation earlier and farther than
+// wrongLoopClosureDistance (2 loop_radius + 1 m) from it (none if there is no such pose), measured
+// as a plausible loop closure (a relative pose within loop_radius, any heading; 3D: any yaw) with
+// the odometry's information. They are listed in SimulatedWorld::outliers.
 //
 // The initial values (vertices) are dead reckoning from the true first pose: each variable from the
 // first factor that reaches it (model_chi2.h's initialEstimate). Deterministic for a seed on every
@@ -86,8 +91,9 @@ struct WorldOptions {
 };
 
 // The options a world starts from (then the command line's): the fields above, except sphere3d's
-// loop_probability 1 and one loop per pose (sphere2500 closes nearly every pose), garage3d's
-// loop_probability 0.8, and points3d's 60 landmarks within 4 m and loop_probability 0.3.
+// 2500 steps, loop_probability 1 and one loop per pose (sphere2500 closes nearly every pose),
+// garage3d's 1600 steps and loop_probability 0.8 (neither has landmarks), and points3d's 60
+// landmarks within 4 m and loop_probability 0.3.
 WorldOptions defaultWorldOptions(WorldKind kind);
 
 struct SimulatedWorld {
@@ -95,6 +101,9 @@ struct SimulatedWorld {
   ModelDataset truth;                 // g2o; vertices only: the true poses and landmarks
   std::vector<std::size_t> outliers;  // indices into dataset.factors of the wrong loop closures
 };
+
+// How far apart the two poses of a wrong loop closure are at least (OUTLIERS above).
+double wrongLoopClosureDistance(const WorldOptions& options);
 
 // Throws std::invalid_argument for options outside the ranges above.
 SimulatedWorld simulateWorld(WorldKind kind, const WorldOptions& options);
