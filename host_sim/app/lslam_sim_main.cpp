@@ -2,7 +2,7 @@
 // batch solver, and compares them.
 //
 //   lslam-sim run DATASET [--order online|file] [--solve-every N] [--json] [--csv STEPS.csv]
-//                         [--out ESTIMATE.g2o] [--report REPORT.json]
+//                         [--out ESTIMATE.g2o] [--report REPORT.json] [--factor-blocks N]
 //   lslam-sim simulate WORLD OUT.g2o [--steps N] [--seed S] [parameters]
 //   lslam-sim generate OUT.g2o [--poses N] [--seed S]
 //   lslam-sim --help | simulate --help
@@ -49,6 +49,7 @@ constexpr const char* kUsage =
     "                 [--relinearize-full-cost RATIO] [--order-in-one-update]\n"
     "                 [--prepare-min-products N]\n"
     "                 [--reorder-top] [--no-row-updates]\n"
+    "                 [--factor-blocks N]\n"
     "       lslam-sim simulate WORLD OUT.g2o [--steps N] [--seed S] [parameters]\n"
     "                 (WORLD: grid2d, sphere3d, garage3d, points3d; lslam-sim simulate --help)\n"
     "       lslam-sim generate OUT.g2o [--poses N] [--seed S]\n"
@@ -104,7 +105,7 @@ struct RunSummary {
   double max_position_diff = 0, total_seconds = 0;
   double median = 0, p99 = 0, worst = 0, odometry_median = 0, odometry_max = 0, loop_median = 0,
          loop_max = 0;
-  lslam::Index reorders = 0, factor_blocks = 0;
+  lslam::Index reorders = 0, factor_blocks = 0, peak_factor_blocks = 0, factor_block_capacity = 0;
   std::size_t solver_bytes = 0;
   std::optional<TrajectoryError> truth;  // with --truth
 };
@@ -140,8 +141,10 @@ std::string toJson(const RunArgs& args, const RunSummary& r) {
      << ", \"max\": " << r.worst << "}, \"odometry_step_ms\": {\"median\": " << r.odometry_median
      << ", \"max\": " << r.odometry_max << "}, \"loop_step_ms\": {\"median\": " << r.loop_median
      << ", \"max\": " << r.loop_max << "}, \"reorders\": " << r.reorders
-     << ", \"factor_blocks\": " << r.factor_blocks << ", \"solver_bytes\": " << r.solver_bytes
-     << ", \"peak_rss_kb\": " << peakRssKb();
+     << ", \"factor_blocks\": " << r.factor_blocks
+     << ", \"factor_blocks_peak\": " << r.peak_factor_blocks
+     << ", \"factor_block_capacity\": " << r.factor_block_capacity
+     << ", \"solver_bytes\": " << r.solver_bytes << ", \"peak_rss_kb\": " << peakRssKb();
   if (r.truth) {
     js << ", \"truth\": " << jsonString(args.truth) << ", \"truth_poses\": " << r.truth->poses
        << ", \"truth_landmarks\": " << r.truth->landmarks
@@ -221,6 +224,8 @@ void setRun(const ModelRun& inc, RunSummary& r) {
   setStepTimes(inc.steps, r);
   r.reorders = inc.reorders;
   r.factor_blocks = inc.factor_blocks;
+  r.peak_factor_blocks = inc.peak_factor_blocks;
+  r.factor_block_capacity = inc.capacities.factor_blocks;
   r.solver_bytes = inc.solver_bytes;
 }
 
@@ -236,6 +241,7 @@ IncrementalOptions incrementalOptions(const RunArgs& args) {
   IncrementalOptions options;
   options.order = args.order;
   options.solve_every = args.solve_every;
+  options.factor_blocks = args.factor_blocks;
   options.solver = args.solver;
   // Progress only for a person watching: never into a redirected stderr.
   if (isatty(fileno(stderr)) != 0) options.progress = printProgress;

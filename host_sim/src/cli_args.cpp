@@ -194,6 +194,7 @@ std::optional<std::string> parseRunArgs(const std::vector<std::string>& argv, Ru
          return std::nullopt;
        }},
       integer("--solve-every", args.solve_every, 1, "an integer >= 1"),
+      integer("--factor-blocks", args.factor_blocks, 1, "an integer in 1..2147483647"),
       path("--csv", args.csv),
       path("--out", args.out),
       path("--report", args.report),

@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstring>
+#include <cstdint>
+#include <limits>
 #include <memory>
-#include <new>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
@@ -20,35 +20,6 @@
 namespace lslam::sim {
 
 namespace {
-
-// The host's capacities: enough for every dataset in ../shared/datasets (victoriaPark: 6969 poses,
-// 151 landmarks, 10608 factors; sphere2500: 2500 poses, 4949 factors). A block pool of twice the
-// largest live factor seen on them; block values at the largest block size.
-using HostSmoother2D =
-    StaticSmoother<Slam2D, 16384, 4096, 32768, 32768 * 12, 1 << 20, (1 << 20) * 9>;
-using HostSmoother3D =
-    StaticSmoother<Slam3D, 8192, 4096, 16384, 16384 * 43, 1 << 19, (1 << 19) * 36>;
-// Pose graphs (no landmarks) take the one-size models, whose kernels are the fastest.
-using HostSmootherPoses3D = StaticSmoother<PoseSlam3D, 8192, 0, 16384, 16384 * 43, 1 << 19, 0>;
-using HostSmootherPoses2D = StaticSmoother<PoseSlam2D, 16384, 0, 32768, 32768 * 12, 1 << 20, 0>;
-
-// On the robot the solver lives in .bss, which the startup code zeroes (and so pages in) before
-// main(). The host does the same: the solver is built in memory zeroed beforehand, so the timed
-// steps do not pay the kernel's first-touch page faults as the block pool's tail advances into
-// the object.
-template <class S>
-struct ZeroedDeleter {
-  void operator()(S* s) const {
-    s->~S();
-    ::operator delete (static_cast<void*>(s), std::align_val_t{alignof(S)});
-  }
-};
-template <class S>
-std::unique_ptr<S, ZeroedDeleter<S>> makeZeroed(const SolverOptions& options) {
-  void* memory = ::operator new (sizeof(S), std::align_val_t{alignof(S)});
-  std::memset(memory, 0, sizeof(S));
-  return std::unique_ptr<S, ZeroedDeleter<S>>(new (memory) S(options));
-}
 
 // ---- Values between the host's parameters and the firmware's types --------------------------
 
@@ -145,7 +116,7 @@ StepKind classify(const ModelDataset& d, const ModelStep& step, std::int64_t pre
 
 // The step's rejection as a DatasetError at its first factor's line.
 [[noreturn]] void rejectStep(const ModelDataset& d, const ModelStep& step, std::size_t index,
-                             Status status) {
+                             Status status, const std::string& note) {
   constexpr std::size_t kMaxLines = 10;
   std::string reason =
       "step " + std::to_string(index) + " (pose " + std::to_string(step.new_pose.id);
@@ -158,7 +129,7 @@ StepKind classify(const ModelDataset& d, const ModelStep& step, std::int64_t pre
       reason += ", ... (" + std::to_string(step.factors.size()) + " factors)";
     }
   }
-  reason += std::string(") rejected: ") + toString(status);
+  reason += std::string(") rejected: ") + toString(status) + note;
   const std::size_t line = step.factors.empty() ? 0 : d.factors[step.factors.front()].line;
   throw DatasetError(d.name, line, reason);
 }
@@ -193,9 +164,10 @@ std::string checkFixed(const ModelDataset& d, const VariableKey& anchor) {
          "rigid motion";
 }
 
-template <class Model, class Solver>
+template <class Model>
 class Runner {
  public:
+  using Solver = SizedSmoother<Model>;
   using Pose = TypeAtT<0, typename Model::Variables>;
   // A pose-only model's "landmark" is its pose kind, never used.
   using Landmark = TypeAtT<Model::Variables::kSize - 1, typename Model::Variables>;
@@ -246,8 +218,9 @@ class Runner {
     out.gauge_note = checkFixed(d_, out.anchor);
     SolverOptions solver_options = options_.solver;
     solver_options.solve_after_update = false;  // solve() below, every N steps
-    auto solver = makeZeroed<Solver>(solver_options);
-    out.solver_bytes = sizeof(Solver);
+    out.capacities = modelCapacities(d_, options_.order, options_.factor_blocks);
+    const auto solver = std::make_unique<Solver>(out.capacities, solver_options);
+    out.solver_bytes = solver->bytes();
     out.steps.reserve(steps.size());
 
     // Every step's inputs are converted before the clock starts (the robot has them in hand).
@@ -275,11 +248,13 @@ class Runner {
       const auto t_solve = Clock::now();
       if (status == Status::Ok && solve_now) solver->solve(false, &record.result);
       const auto t1 = Clock::now();
-      if (status != Status::Ok) rejectStep(d_, step, s, status);
+      if (status != Status::Ok)
+        rejectStep(d_, step, s, status, capacityNote(*solver, step, status));
       record.microseconds = std::chrono::duration<double, std::micro>(t1 - t0).count();
       record.solve_microseconds = std::chrono::duration<double, std::micro>(t1 - t_solve).count();
       out.total_seconds += record.microseconds * 1e-6;
       out.reorders += record.result.reordered ? 1 : 0;
+      out.peak_factor_blocks = std::max(out.peak_factor_blocks, record.result.factor_blocks);
       out.steps.push_back(record);
       if (step.new_pose.id >= 0) previous_pose = step.new_pose.id;
       if (options_.progress) reportProgress(*solver, steps, s, start);
@@ -287,11 +262,34 @@ class Runner {
     out.estimate = estimateOf(*solver);
     out.poses = solver->poses();
     out.landmarks = solver->landmarks();
+    out.factors = solver->factors();
     out.factor_blocks = solver->factorBlocks();
     return out;
   }
 
  private:
+  // Which capacity a rejected step met, for its message (empty unless CapacityExhausted). The
+  // graph's capacities are the run's exact counts: it is the block pool, which --factor-blocks
+  // sets.
+  static std::string capacityNote(const Solver& solver, const ModelStep& step, Status status) {
+    if (status != Status::CapacityExhausted) return {};
+    const SmootherCapacities& c = solver.capacities();
+    const auto& graph = solver.graph();
+    const Index landmarks = static_cast<Index>(step.new_landmarks.size());
+    const bool graph_full =
+        (step.new_pose.id >= 0 && graph.freeVariablesOfKind(0) < 1) ||
+        (landmarks > 0 && (Model::Variables::kSize < 2 ||
+                           graph.freeVariablesOfKind(Model::Variables::kSize - 1) < landmarks)) ||
+        graph.freeFactors() < static_cast<Index>(step.factors.size());
+    if (graph_full) {
+      return " (the graph's: " + std::to_string(c.poses) + " poses, " +
+             std::to_string(c.landmarks) + " landmarks, " + std::to_string(c.factors) + " factors)";
+    }
+    return " (the Cholesky factor's block pool, " + std::to_string(c.factor_blocks) +
+           " blocks; lslam-sim run --factor-blocks N sets a larger one, e.g. --factor-blocks " +
+           std::to_string(2 * static_cast<std::int64_t>(c.factor_blocks)) + ")";
+  }
+
   // The variables the step introduces, with their initial values from the solver's current
   // estimate of the variables their first factors name (model_steps.h, INITIAL VALUES).
   void introduce(const Solver& solver, const ModelStep& step, std::vector<Variable>& variables,
@@ -474,31 +472,73 @@ Eigen::MatrixXd solverInformation(const ModelDataset& d, const ModelFactor& f) {
 
 namespace {
 
-// fn(Model*, Solver*) for the model and host solver of `d`: a dataset without landmarks runs on the
-// one-size PoseSlam2D or PoseSlam3D.
+// fn(Model*) for the model of `d`: a dataset without landmarks runs on the one-size PoseSlam2D or
+// PoseSlam3D, whose kernels are the fastest.
 template <class Fn>
 auto withModelOf(const ModelDataset& d, Fn&& fn) {
   const bool landmarks = hasLandmarks(d);
   if (d.dimension == 3) {
-    if (landmarks) return fn(static_cast<Slam3D*>(nullptr), static_cast<HostSmoother3D*>(nullptr));
-    return fn(static_cast<PoseSlam3D*>(nullptr), static_cast<HostSmootherPoses3D*>(nullptr));
+    if (landmarks) return fn(static_cast<Slam3D*>(nullptr));
+    return fn(static_cast<PoseSlam3D*>(nullptr));
   }
-  if (landmarks) return fn(static_cast<Slam2D*>(nullptr), static_cast<HostSmoother2D*>(nullptr));
-  return fn(static_cast<PoseSlam2D*>(nullptr), static_cast<HostSmootherPoses2D*>(nullptr));
+  if (landmarks) return fn(static_cast<Slam2D*>(nullptr));
+  return fn(static_cast<PoseSlam2D*>(nullptr));
+}
+
+// The block pool: kBlockMargin times the batch factor's fill (batchFactorBlocks). The incremental
+// factor's most live blocks over a run, against that fill: 1.02-1.08 on manhattan_world_500 and
+// the generate grids (seed 3, 1000/2000/5000 poses), 1.12-1.42 on ../shared/datasets (intel 1.42,
+// parking-garage 1.32, sphere2500 1.30, city10000 1.29) and 1.11-1.36 on the simulate worlds'
+// defaults. A full refactorization stages a new factor beside the live one, so the pool needs
+// about twice the peak: 2 x 1.42, and 40 % headroom over the worst case seen, is 4.
+constexpr double kBlockMargin = 4.0;
+
+Index blockPool(std::int64_t batch_blocks, Index variables) {
+  const double pool = std::ceil(kBlockMargin * static_cast<double>(batch_blocks));
+  const double most = static_cast<double>(std::numeric_limits<Index>::max());
+  return std::max(variables, static_cast<Index>(std::min(pool, most)));
+}
+
+template <class Model>
+SmootherCapacities capacitiesOf(const ModelDataset& d, StepOrder order, Index factor_blocks) {
+  SmootherCapacities c;
+  // The anchor prior, then every step's variables and factors.
+  c.factors = 1;
+  c.factor_values = kFactorValues<typename Model::PosePrior>;
+  for (const ModelStep& step : buildModelSteps(d, order)) {
+    if (step.new_pose.id >= 0) ++c.poses;
+    c.landmarks += static_cast<Index>(step.new_landmarks.size());
+    for (const std::size_t k : step.factors) {
+      ++c.factors;
+      visitHostKind<Model>(d.factors[k].kind, [&](auto* tag) {
+        c.factor_values += kFactorValues<std::remove_pointer_t<decltype(tag)>>;
+      });
+    }
+  }
+  c.factor_blocks =
+      factor_blocks > 0 ? factor_blocks : blockPool(batchFactorBlocks(d), c.poses + c.landmarks);
+  // Mixed block sizes: every block at the largest size, as MaxFactorBlocks * kMax^2 suffices.
+  using Sizes = ModelBlockSizes<Model>;
+  c.factor_block_values = Sizes::kUniform ? 0 : c.factor_blocks * Sizes::kMax * Sizes::kMax;
+  return c;
 }
 
 }  // namespace
 
 ModelRun runModelIncremental(const ModelDataset& d, const IncrementalOptions& options) {
-  return withModelOf(d, [&](auto* model, auto* solver) {
-    using Model = std::remove_pointer_t<decltype(model)>;
-    using Solver = std::remove_pointer_t<decltype(solver)>;
-    return Runner<Model, Solver>(d, options).run();
+  return withModelOf(d, [&](auto* model) {
+    return Runner<std::remove_pointer_t<decltype(model)>>(d, options).run();
+  });
+}
+
+SmootherCapacities modelCapacities(const ModelDataset& d, StepOrder order, Index factor_blocks) {
+  return withModelOf(d, [&](auto* model) {
+    return capacitiesOf<std::remove_pointer_t<decltype(model)>>(d, order, factor_blocks);
   });
 }
 
 SolverOptions defaultModelOptions(const ModelDataset& d) {
-  const SolverOptions options = withModelOf(d, [](auto* model, auto*) {
+  const SolverOptions options = withModelOf(d, [](auto* model) {
     return defaultSolverOptions<std::remove_pointer_t<decltype(model)>>();
   });
   const bool range_bearing =

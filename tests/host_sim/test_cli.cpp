@@ -58,7 +58,7 @@ TEST_CASE("run: an option without its value, at the end of the line or before an
         "--relinearize-threshold", "--relinearize-urgent", "--relinearize-partial",
         "--backsub-tolerance", "--reorder-growth", "--reorder-excess", "--reorder-relinearized",
         "--reorder-refresh", "--relinearize-full-cost", "--relinearize-skip", "--reorder-path",
-        "--reorder-burst"}) {
+        "--reorder-burst", "--factor-blocks"}) {
     CAPTURE(option);
     CHECK(runError({"data.g2o", option}) == std::string(option) + " needs a value");
     CHECK(runError({option, "--json", "data.g2o"}) ==
@@ -79,6 +79,23 @@ TEST_CASE("run: invalid values are named with what was expected") {
   CHECK(runError({"data.g2o", "--reorder-growth", "nan"}) ==
         "--reorder-growth: invalid value \"nan\" (expected a finite number >= 0)");
   CHECK(runError({"data.g2o", "--out", ""}) == "--out: invalid value \"\" (expected a file path)");
+}
+
+TEST_CASE("run: --factor-blocks takes a positive block count, once") {
+  RunArgs args;
+  REQUIRE(parseRunArgs({"data.g2o", "--factor-blocks", "250000"}, args) == std::nullopt);
+  CHECK(args.factor_blocks == 250000);
+  RunArgs defaults;
+  REQUIRE(parseRunArgs({"data.g2o"}, defaults) == std::nullopt);
+  CHECK(defaults.factor_blocks == 0);  // sized from the dataset
+  for (const char* value : {"0", "-5", "1.5", "1e6", "2147483648", "abc", ""}) {
+    CAPTURE(value);
+    CHECK(runError({"data.g2o", "--factor-blocks", value}) ==
+          std::string("--factor-blocks: invalid value \"") + value +
+              "\" (expected an integer in 1..2147483647)");
+  }
+  CHECK(runError({"data.g2o", "--factor-blocks", "1", "--factor-blocks", "2"}) ==
+        "--factor-blocks given twice");
 }
 
 TEST_CASE("run: an option given twice is an error, not the last one winning") {

@@ -34,6 +34,7 @@ struct RunArgs {
   std::string dataset;
   StepOrder order = StepOrder::Online;
   int solve_every = 1;
+  Index factor_blocks = 0;  // the solver's block pool (0: sized from the dataset)
   bool json = false;
   std::string csv, out, report;  // empty: not written
   std::string truth;             // ground truth to score against (empty: none)

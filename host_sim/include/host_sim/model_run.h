@@ -10,6 +10,7 @@
 // angles), so the solver minimises iSAM's objective up to second-order terms in the errors. chi2
 // is always evaluated in the file's own convention (model_chi2.h).
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <vector>
@@ -17,6 +18,7 @@
 #include "host_sim/model_chi2.h"
 #include "host_sim/model_dataset.h"
 #include "host_sim/model_steps.h"
+#include "host_sim/sized_smoother.h"
 #include "lslam/solver/model_inputs.h"
 #include "lslam/solver/solver_options.h"
 #include "lslam/solver/update_result.h"
@@ -50,17 +52,22 @@ struct IncrementalOptions {
   // after the last step). Each call reads the whole estimate and evaluates chi2: O(graph).
   std::function<void(const RunProgress&)> progress;
   double progress_interval_s = 0.5;
+  // The Cholesky factor's block pool; 0: modelCapacities' rule.
+  Index factor_blocks = 0;
 };
 
 struct ModelRun {
   ModelEstimate initial;   // each variable's value when it was introduced (the batch starts here)
   ModelEstimate estimate;  // the solver's final estimate
   std::vector<StepRecord> steps;
-  double total_seconds = 0.0;  // sum of the steps' time (no file reading, no batch)
-  std::size_t solver_bytes = 0;
+  double total_seconds = 0.0;     // sum of the steps' time (no file reading, no batch)
+  std::size_t solver_bytes = 0;   // SizedSmoother::bytes()
+  SmootherCapacities capacities;  // the solver's
   Index poses = 0;
   Index landmarks = 0;
-  Index factor_blocks = 0;
+  Index factors = 0;             // the solver's, the anchor included
+  Index factor_blocks = 0;       // live blocks of L at the end
+  Index peak_factor_blocks = 0;  // ... and the most after any step
   Index reorders = 0;
   VariableKey anchor{VariableRole::Pose, -1};  // the pose the solver anchors (id -1: none)
   std::string gauge_note;  // "file:line: FIX ..." when the file fixes another pose (else empty)
@@ -71,9 +78,23 @@ struct ModelRun {
 // only moves the gauge and is noted in gauge_note, a second fixed pose throws DatasetError at its
 // line. If the solver rejects a step, throws DatasetError at the line of the step's first factor,
 // naming the step, its pose, the lines of its factors and the solver's status. A dataset beyond
-// the host solver's capacity is such a rejection (Status::CapacityExhausted). Whatever
-// buildModelSteps throws.
+// the solver's capacity is such a rejection (Status::CapacityExhausted; the message names the
+// capacity). Whatever buildModelSteps throws.
+//
+// The solver is a SizedSmoother of modelCapacities(d, options.order, options.factor_blocks),
+// allocated and zeroed before the first step.
 ModelRun runModelIncremental(const ModelDataset& d, const IncrementalOptions& options);
+
+// The capacities runModelIncremental gives the solver of `d` fed in `order`: exactly the poses,
+// landmarks and factors its steps add (and the anchor prior) and their factor values; a block pool
+// of `factor_blocks`, or if 0 a margin (its evidence in model_run.cpp) times
+// batchFactorBlocks(d) (at least the variables);
+// block values for the largest block size.
+SmootherCapacities modelCapacities(const ModelDataset& d, StepOrder order, Index factor_blocks = 0);
+
+// The nonzero blocks (variable x variable, the diagonal included) of the Cholesky factor of the
+// whole dataset's normal equations under a COLAMD ordering of its block pattern.
+std::int64_t batchFactorBlocks(const ModelDataset& d);
 
 // The information of `f` in the solver's error coordinates: ModelFactor::information itself for
 // the G2o convention and for factors whose error is the same in both conventions; for BetweenSE2
