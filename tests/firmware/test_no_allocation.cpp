@@ -461,7 +461,8 @@ void checkNoHeapCalls(const HeapCalls& calls, const std::string& span) {
 
 // Room for manhattanOlson3500 (3,500 poses, 5,453 factors and the anchor) or the synthetic world
 // that stands in for it (6,864 factors), and their fill: ~23,000 live blocks at the end of
-// manhattanOlson3500, ~300,000 at the end of the synthetic world (the host tools' 1 << 20).
+// manhattanOlson3500, ~300,000 at the end of the synthetic world; 1 << 20 blocks leave the staging
+// copy room.
 using RunSmoother = StaticSmoother<PoseSlam2D, 4096, 0, 8192, 8192 * 12, 1 << 20, 0>;
 
 }  // namespace
