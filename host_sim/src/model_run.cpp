@@ -190,24 +190,17 @@ class Runner {
   }
 
   // Calls options_.progress after step s if the interval has passed or s is the last step.
-  void reportProgress(const Solver& solver, const std::vector<ModelStep>& steps, std::size_t s,
+  void reportProgress(const Solver& solver, std::size_t steps, std::size_t s,
                       Clock::time_point start) {
     const auto now = Clock::now();
     const double since = std::chrono::duration<double>(now - last_report_).count();
-    if (s + 1 < steps.size() && since < options_.progress_interval_s) return;
+    if (s + 1 < steps && since < options_.progress_interval_s) return;
     last_report_ = now;
     RunProgress p;
     p.steps_done = s + 1;
-    p.steps_total = steps.size();
+    p.steps_total = steps;
     p.wall_seconds = std::chrono::duration<double>(now - start).count();
-    const ModelEstimate estimate = estimateOf(solver);
-    for (std::size_t t = 0; t <= s; ++t) {
-      for (const std::size_t k : steps[t].factors) {
-        const ModelFactor& f = d_.factors[k];
-        const Eigen::VectorXd e = factorError(d_.convention, f, estimate);
-        p.chi2 += e.dot(f.information * e);
-      }
-    }
+    p.chi2 = solver.chi2();
     options_.progress(p);
   }
 
@@ -257,7 +250,7 @@ class Runner {
       out.peak_factor_blocks = std::max(out.peak_factor_blocks, record.result.factor_blocks);
       out.steps.push_back(record);
       if (step.new_pose.id >= 0) previous_pose = step.new_pose.id;
-      if (options_.progress) reportProgress(*solver, steps, s, start);
+      if (options_.progress) reportProgress(*solver, steps.size(), s, start);
     }
     out.estimate = estimateOf(*solver);
     out.poses = solver->poses();

@@ -4,6 +4,7 @@
 #include <utility>
 
 #include "host_sim/synthetic.h"
+#include "lslam/geometry/angle.h"
 #include "world_draft.h"
 #include "world_measurements.h"
 

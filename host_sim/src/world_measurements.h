@@ -1,7 +1,7 @@
 #pragma once
-// The simulated sensors shared by the synthetic worlds: true rigid poses, and noisy relative-pose
-// and landmark measurements with the information of their noise (worlds.h, NOISE). Private to
-// host_sim/src.
+// The simulated sensors shared by the synthetic worlds: true rigid 3D poses, the noisy 3D
+// relative-pose measurement with the information of its noise (worlds.h, NOISE), and what a
+// range-limited sensor sees. Private to host_sim/src.
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -12,7 +12,6 @@
 #include <vector>
 
 #include "host_sim/model_dataset.h"
-#include "lslam/geometry/angle.h"
 #include "portable_random.h"
 
 namespace lslam::sim::detail {
@@ -42,10 +41,6 @@ inline Eigen::VectorXd poseParameters(const Pose3& p) {
   Eigen::VectorXd v(7);
   v << p.t, p.q.x(), p.q.y(), p.q.z(), p.q.w();
   return v;
-}
-
-inline Pose3 pose3Of(const Eigen::VectorXd& p) {
-  return {Eigen::Quaterniond(p[6], p[3], p[4], p[5]).normalized(), p.head<3>()};
 }
 
 // sigma times three standard normal draws, x then y then z.
@@ -95,27 +90,6 @@ inline ModelFactor noisyBetweenSE3(std::int64_t from, std::int64_t to, const Pos
     f.information(k, k) = 1.0 / (sigma_translation * sigma_translation);
     f.information(k + 3, k + 3) = 4.0 / (sigma_rotation * sigma_rotation);
   }
-  return f;
-}
-
-// Between factor from -> to of SE2 with measurement rel + (nx, ny, ntheta), theta wrapped.
-inline ModelFactor noisyBetweenSE2(std::int64_t from, std::int64_t to, const Eigen::Vector3d& rel,
-                                   double sigma_translation, double sigma_rotation,
-                                   PortableRandom& random) {
-  const double nx = random.normal();
-  const double ny = random.normal();
-  const double nt = random.normal();
-  ModelFactor f;
-  f.kind = FactorKind::BetweenSE2;
-  f.first = poseKey(from);
-  f.second = poseKey(to);
-  f.measurement =
-      Eigen::Vector3d(rel.x() + sigma_translation * nx, rel.y() + sigma_translation * ny,
-                      lslam::wrapAngle(rel.z() + sigma_rotation * nt));
-  f.information = Eigen::Vector3d(1.0 / (sigma_translation * sigma_translation),
-                                  1.0 / (sigma_translation * sigma_translation),
-                                  1.0 / (sigma_rotation * sigma_rotation))
-                      .asDiagonal();
   return f;
 }
 

@@ -41,7 +41,7 @@ struct RunProgress {
   std::size_t steps_done = 0;
   std::size_t steps_total = 0;
   double wall_seconds = 0.0;  // since the run started (steps, conversions and reports)
-  double chi2 = 0.0;          // of the factors added so far, at the current estimate
+  double chi2 = 0.0;          // the solver's chi2 (Smoother::chi2) at the current estimate
 };
 
 struct IncrementalOptions {
@@ -49,7 +49,7 @@ struct IncrementalOptions {
   int solve_every = 1;  // back-substitute after every N-th step (and after the last)
   SolverOptions solver;
   // If set, called after a step once progress_interval_s has passed since the last call (and
-  // after the last step). Each call reads the whole estimate and evaluates chi2: O(graph).
+  // after the last step). Each call evaluates the solver's chi2: O(factors).
   std::function<void(const RunProgress&)> progress;
   double progress_interval_s = 0.5;
   // The Cholesky factor's block pool; 0: modelCapacities' rule.
