@@ -49,7 +49,7 @@ constexpr const char* kUsage =
     "                 [--relinearize-full-cost RATIO] [--order-in-one-update]\n"
     "                 [--prepare-min-products N]\n"
     "                 [--reorder-top] [--no-row-updates]\n"
-    "                 [--factor-blocks N]\n"
+    "                 [--factor-blocks N] [--max-poses N] [--no-batch]\n"
     "       lslam-sim simulate WORLD OUT.g2o [--steps N] [--seed S] [parameters]\n"
     "                 (WORLD: grid2d, sphere3d, garage3d, points3d; lslam-sim simulate --help)\n"
     "       lslam-sim generate OUT.g2o [--poses N] [--seed S]\n"
@@ -108,6 +108,7 @@ struct RunSummary {
   lslam::Index reorders = 0, factor_blocks = 0, peak_factor_blocks = 0, factor_block_capacity = 0;
   std::size_t solver_bytes = 0;
   std::optional<TrajectoryError> truth;  // with --truth
+  std::optional<CompactStats> compact;   // with --max-poses
 };
 
 void setStepTimes(const std::vector<StepRecord>& steps, RunSummary& out) {
@@ -145,6 +146,12 @@ std::string toJson(const RunArgs& args, const RunSummary& r) {
      << ", \"factor_blocks_peak\": " << r.peak_factor_blocks
      << ", \"factor_block_capacity\": " << r.factor_block_capacity
      << ", \"solver_bytes\": " << r.solver_bytes << ", \"peak_rss_kb\": " << peakRssKb();
+  if (r.compact) {
+    js << ", \"max_poses\": " << args.max_poses << ", \"nodes\": " << r.compact->nodes
+       << ", \"loop_closures_folded\": " << r.compact->folded
+       << ", \"loop_closures_dropped\": " << r.compact->dropped
+       << ", \"relocalized_steps\": " << r.compact->relocalized;
+  }
   if (r.truth) {
     js << ", \"truth\": " << jsonString(args.truth) << ", \"truth_poses\": " << r.truth->poses
        << ", \"truth_landmarks\": " << r.truth->landmarks
@@ -181,6 +188,14 @@ void printSummary(const RunArgs& args, const RunSummary& r) {
   std::printf("reorders           %d, factor blocks %d, solver object %zu bytes, peak RSS %ld kB\n",
               static_cast<int>(r.reorders), static_cast<int>(r.factor_blocks), r.solver_bytes,
               peakRssKb());
+  if (r.compact) {
+    std::printf(
+        "compact graph      %d nodes (--max-poses %d), loop closures folded %d, dropped "
+        "%d, relocalized steps %d\n",
+        static_cast<int>(r.compact->nodes), static_cast<int>(args.max_poses),
+        static_cast<int>(r.compact->folded), static_cast<int>(r.compact->dropped),
+        static_cast<int>(r.compact->relocalized));
+  }
   if (r.truth) {
     std::printf(
         "ATE                position %.4g m, rotation %.4g deg (%zu poses, rigid alignment)\n",
@@ -227,6 +242,7 @@ void setRun(const ModelRun& inc, RunSummary& r) {
   r.peak_factor_blocks = inc.peak_factor_blocks;
   r.factor_block_capacity = inc.capacities.factor_blocks;
   r.solver_bytes = inc.solver_bytes;
+  r.compact = inc.compact;
 }
 
 // One line on stderr, rewritten in place: steps done, steps per second, chi2 so far.
@@ -242,6 +258,7 @@ IncrementalOptions incrementalOptions(const RunArgs& args) {
   options.order = args.order;
   options.solve_every = args.solve_every;
   options.factor_blocks = args.factor_blocks;
+  options.max_poses = args.max_poses;
   options.solver = args.solver;
   // Progress only for a person watching: never into a redirected stderr.
   if (isatty(fileno(stderr)) != 0) options.progress = printProgress;
@@ -291,12 +308,16 @@ int runModel(const RunArgs& args, const ModelDataset& d) {
   // The batch holds the solver's anchor fixed (the same gauge) and starts where the solver did.
   BatchOptions batch_options;
   if (inc.anchor.id >= 0) batch_options.fixed = {inc.anchor.id};
-  const ModelBatchResult batch = solveModelBatch(d, inc.initial, batch_options);
-  setBatch(batch, r);
-  for (const auto& [key, value] : inc.estimate) {
-    const Eigen::VectorXd& other = batch.values.at(key);
-    const int n = d.dimension;  // every kind's parameters start with its position
-    r.max_position_diff = std::max(r.max_position_diff, (value.head(n) - other.head(n)).norm());
+  if (args.batch) {
+    const ModelBatchResult batch = solveModelBatch(d, inc.initial, batch_options);
+    setBatch(batch, r);
+    for (const auto& [key, value] : inc.estimate) {
+      const Eigen::VectorXd& other = batch.values.at(key);
+      const int n = d.dimension;  // every kind's parameters start with its position
+      r.max_position_diff = std::max(r.max_position_diff, (value.head(n) - other.head(n)).norm());
+    }
+  } else {
+    r.batch_stop_reason = "not run (--no-batch)";
   }
   setRun(inc, r);
   if (!args.truth.empty()) {

@@ -195,6 +195,8 @@ std::optional<std::string> parseRunArgs(const std::vector<std::string>& argv, Ru
        }},
       integer("--solve-every", args.solve_every, 1, "an integer >= 1"),
       integer("--factor-blocks", args.factor_blocks, 1, "an integer in 1..2147483647"),
+      integer("--max-poses", args.max_poses, 2, "an integer in 2..2147483647"),
+      flag("--no-batch", args.batch, false),
       path("--csv", args.csv),
       path("--out", args.out),
       path("--report", args.report),

@@ -9,12 +9,14 @@
 #include <stdexcept>
 #include <string>
 #include <type_traits>
+#include <unordered_map>
 
 #include "host_sim/model_steps.h"
 #include "lslam/models/pose_slam_2d.h"
 #include "lslam/models/pose_slam_3d.h"
 #include "lslam/models/slam_2d.h"
 #include "lslam/models/slam_3d.h"
+#include "lslam/solver/compact_pose_graph.h"
 #include "lslam/solver/smoother.h"
 
 namespace lslam::sim {
@@ -324,6 +326,135 @@ class Runner {
   Clock::time_point last_report_{};
 };
 
+// The compact run (--max-poses, lslam/solver/compact_pose_graph.h): a pose graph of at most
+// max_poses nodes, every pose of the file a place on them. Each step is its pose's odometry from
+// the previous pose and its loop closures to earlier poses, in the file's measurements.
+template <class Model>
+class CompactRunner {
+ public:
+  using Solver = SizedSmoother<Model>;
+  using Pose = TypeAtT<0, typename Model::Variables>;
+  using Between = typename Model::PoseBetween;
+  using Matrix = Eigen::Matrix<double, Pose::kDof, Pose::kDof>;
+  using Clock = std::chrono::steady_clock;
+
+  CompactRunner(const ModelDataset& d, const IncrementalOptions& options)
+      : d_(d), options_(options) {}
+
+  ModelRun run() {
+    const std::vector<ModelStep> steps = buildModelSteps(d_, StepOrder::Online);
+    ModelRun out;
+    if (steps.empty()) return out;
+    out.anchor = steps.front().new_pose;
+    out.gauge_note = checkFixed(d_, out.anchor);
+    SolverOptions solver_options = options_.solver;
+    solver_options.solve_after_update = false;  // solve() below, once per step
+    out.capacities = compactCapacities(d_, options_.max_poses, options_.factor_blocks);
+    const auto solver = std::make_unique<Solver>(out.capacities, solver_options);
+    CompactPoseGraph<Model> graph(*solver);
+    out.solver_bytes = solver->bytes();
+    out.steps.reserve(steps.size());
+    CompactStats stats;
+
+    std::unordered_map<std::int64_t, Place<Pose>> places;
+    std::vector<PlaceClosure<Pose>> closures;
+    std::int64_t previous = -1;
+    for (std::size_t s = 0; s < steps.size(); ++s) {
+      const ModelStep& step = steps[s];
+      StepRecord record;
+      record.index = s;
+      record.kind = classify(d_, step, previous);
+      if (step.new_pose.id < 0 || !step.new_landmarks.empty()) {
+        throw std::invalid_argument(d_.name +
+                                    ": --max-poses runs pose graphs whose every step "
+                                    "adds a pose");
+      }
+      Status status = Status::Ok;
+      Pose odometry;
+      Matrix information = Matrix::Zero();
+      closures.clear();
+      if (s == 0) {
+        if (!step.factors.empty()) {
+          throw std::invalid_argument(d_.name + ": --max-poses: the first pose has factors");
+        }
+        const Pose first = toValue<Pose>(initialValue(d_, step, step.new_pose, {}));
+        const auto t0 = Clock::now();
+        status = graph.start(first, &record.result);
+        record.microseconds = std::chrono::duration<double, std::micro>(Clock::now() - t0).count();
+      } else {
+        bool have_odometry = false;
+        for (const std::size_t k : step.factors) {
+          const ModelFactor& f = d_.factors[k];
+          const ModelFactorInput<Model> in = modelFactorInput<Model>(d_, f);
+          if (in.kind != kFactorKind<Model, Between>) {
+            throw DatasetError(d_.name, f.line, "--max-poses takes between factors only");
+          }
+          // Every measurement as the new pose seen from the other one.
+          Pose z = in.template measurementAs<Between>();
+          Matrix info = in.template informationAs<Between>();
+          const bool forward = f.second.id == step.new_pose.id;
+          const std::int64_t other = forward ? f.first.id : f.second.id;
+          if (!forward) {
+            Matrix j;
+            z = z.inverse(&j);
+            const Matrix j_inv = j.inverse();
+            info = j_inv.transpose() * info * j_inv;
+          }
+          if (other == previous && !have_odometry) {
+            odometry = z;
+            information = info;
+            have_odometry = true;
+          } else {
+            closures.push_back(PlaceClosure<Pose>{places.at(other), z, info});
+          }
+        }
+        if (!have_odometry) {
+          throw DatasetError(d_.name, d_.factors[step.factors.front()].line,
+                             "--max-poses: pose " + std::to_string(step.new_pose.id) +
+                                 " has no odometry from pose " + std::to_string(previous));
+        }
+        CompactStepResult c;
+        const auto t0 = Clock::now();
+        status = graph.addStep(odometry, information, closures.data(),
+                               static_cast<Index>(closures.size()), &c);
+        const auto t_solve = Clock::now();
+        if (status == Status::Ok && c.updates > 0) solver->solve(false, &record.result);
+        const auto t1 = Clock::now();
+        record.microseconds = std::chrono::duration<double, std::micro>(t1 - t0).count();
+        record.solve_microseconds = std::chrono::duration<double, std::micro>(t1 - t_solve).count();
+        record.result.block_products += c.block_products;
+        record.result.reordered = c.reordered;
+        stats.folded += c.folded;
+        stats.dropped += c.dropped;
+        stats.relocalized += c.relocalized ? 1 : 0;
+        stats.node_steps += c.node_added ? 1 : 0;
+      }
+      if (status != Status::Ok) rejectStep(d_, step, s, status, "");
+      record.result.factor_blocks = solver->factorBlocks();
+      out.total_seconds += record.microseconds * 1e-6;
+      out.reorders += record.result.reordered ? 1 : 0;
+      out.peak_factor_blocks = std::max(out.peak_factor_blocks, record.result.factor_blocks);
+      out.steps.push_back(record);
+      places[step.new_pose.id] = graph.current();
+      out.initial[step.new_pose] = toParameters(graph.estimate(graph.current()));
+      previous = step.new_pose.id;
+    }
+    for (const auto& [id, place] : places) {
+      out.estimate[VariableKey{VariableRole::Pose, id}] = toParameters(graph.estimate(place));
+    }
+    out.poses = static_cast<Index>(places.size());
+    out.factors = solver->factors();
+    out.factor_blocks = solver->factorBlocks();
+    stats.nodes = graph.nodes();
+    out.compact = stats;
+    return out;
+  }
+
+ private:
+  const ModelDataset& d_;
+  IncrementalOptions options_;
+};
+
 // A 6-vector error of g2o's SE3 convention as the residual pose it measures, (t, q) with the
 // quaternion's vector part v and w = sqrt(1 - |v|^2).
 Vector7d residualPoseSE3(const Vector6d& e) {
@@ -519,6 +650,13 @@ SmootherCapacities capacitiesOf(const ModelDataset& d, StepOrder order, Index fa
 }  // namespace
 
 ModelRun runModelIncremental(const ModelDataset& d, const IncrementalOptions& options) {
+  if (options.max_poses > 0) {
+    if (hasLandmarks(d)) {
+      throw std::invalid_argument(d.name + ": --max-poses runs pose graphs (no landmarks yet)");
+    }
+    if (isPoseGraph2D(d)) return CompactRunner<PoseSlam2D>(d, options).run();
+    return CompactRunner<PoseSlam3D>(d, options).run();
+  }
   return withModelOf(d, [&](auto* model) {
     return Runner<std::remove_pointer_t<decltype(model)>>(d, options).run();
   });
@@ -528,6 +666,27 @@ SmootherCapacities modelCapacities(const ModelDataset& d, StepOrder order, Index
   return withModelOf(d, [&](auto* model) {
     return capacitiesOf<std::remove_pointer_t<decltype(model)>>(d, order, factor_blocks);
   });
+}
+
+SmootherCapacities compactCapacities(const ModelDataset& d, Index max_poses, Index factor_blocks) {
+  const std::vector<ModelStep> steps = buildModelSteps(d, StepOrder::Online);
+  SmootherCapacities c;
+  c.poses = std::min(max_poses, static_cast<Index>(steps.size()));
+  c.factors = 1 + kCompactFactorsPerNode * c.poses;
+  const Index between =
+      d.dimension == 2 ? kFactorValues<BetweenSE2Factor> : kFactorValues<BetweenSE3Factor>;
+  c.factor_values = c.factors * between;  // a prior takes no more than a between factor
+  if (factor_blocks > 0) {
+    c.factor_blocks = factor_blocks;
+  } else {
+    ModelDataset first;
+    first.dimension = d.dimension;
+    for (std::size_t s = 0; s < static_cast<std::size_t>(c.poses); ++s) {
+      for (const std::size_t k : steps[s].factors) first.factors.push_back(d.factors[k]);
+    }
+    c.factor_blocks = blockPool(batchFactorBlocks(first), c.poses);
+  }
+  return c;
 }
 
 SolverOptions defaultModelOptions(const ModelDataset& d) {

@@ -52,6 +52,7 @@
 #include "lslam/models/pose_slam_3d.h"
 #include "lslam/models/slam_2d.h"
 #include "lslam/models/slam_3d.h"
+#include "lslam/solver/compact_pose_graph.h"
 #include "lslam/solver/model_inputs.h"
 #include "lslam/solver/smoother.h"
 
@@ -1138,6 +1139,82 @@ TEST_CASE(
   auto pose_smoother2 =
       std::make_unique<StaticSmoother<PoseSlam2D, 64, 0, 256, 256 * 12, 4000, 0>>(one_step);
   runModelStreamCounted<PoseSlam2D>(*pose_smoother2, poses2, "2D pose-graph smoother stream");
+}
+
+TEST_CASE("no heap allocation while a compact pose graph maps far past its capacity") {
+  // 3,000 steps of a revisit-heavy grid on 100 nodes: full smoothing, then offsets, folded and
+  // new-pair loop closures, dropped ones once the factors are full, and a rejected step every
+  // 50 steps (a non-finite odometry). Inputs and the places' record are prepared beforehand.
+  SyntheticOptions o;
+  o.poses = 3000;
+  o.seed = 3;
+  const Dataset2D d = generateManhattanWorld(o).dataset;
+  const std::vector<PoseStep> in = prepareRun(d, estimateFromVertices(d));
+  using Closure = lslam::PlaceClosure<SE2>;
+  struct CompactInput {
+    SE2 odometry;
+    Mat3 information = Mat3::Zero();
+    VariableId seen[2] = {-1, -1};  // the earlier poses its loop closures start from
+    SE2 closure[2];
+    Mat3 closure_information[2];
+    int closures = 0;
+  };
+  std::vector<CompactInput> steps(in.size());
+  for (std::size_t s = 1; s < in.size(); ++s) {
+    for (const PoseFactor& f : in[s].factors) {
+      CompactInput& c = steps[s];
+      if (f.ids[0] == static_cast<VariableId>(s) - 1) {
+        c.odometry = f.measurementAs<BetweenSE2Factor>();
+        c.information = f.informationAs<BetweenSE2Factor>();
+      } else if (c.closures < 2) {
+        c.seen[c.closures] = f.ids[0];
+        c.closure[c.closures] = f.measurementAs<BetweenSE2Factor>();
+        c.closure_information[c.closures] = f.informationAs<BetweenSE2Factor>();
+        ++c.closures;
+      }
+    }
+  }
+  std::vector<lslam::Place<SE2>> places(in.size());
+  Closure closures[2];
+  auto solver = std::make_unique<StaticSmoother<PoseSlam2D, 100, 0, 1601, 1601 * 12, 6000, 0>>();
+  lslam::CompactPoseGraph<PoseSlam2D> graph(*solver);
+  Status worst = Status::Ok;
+  Index rejected = 0;
+  Index folded = 0;
+  Index dropped = 0;
+  Index offsets = 0;
+  const HeapCalls calls = countHeapCalls([&] {
+    if (graph.start(SE2()) != Status::Ok) worst = Status::InvalidArgument;
+    places[0] = graph.current();
+    for (std::size_t s = 1; s < steps.size(); ++s) {
+      const CompactInput& c = steps[s];
+      for (int k = 0; k < c.closures; ++k) {
+        closures[k] = Closure{places[static_cast<std::size_t>(c.seen[k])], c.closure[k],
+                              c.closure_information[k]};
+      }
+      if (s % 50 == 0) {
+        const SE2 bad(std::numeric_limits<double>::quiet_NaN(), 0.0, 0.0);
+        if (graph.addStep(bad, c.information, closures, c.closures) == Status::NonFiniteInput) {
+          ++rejected;
+        }
+      }
+      lslam::CompactStepResult r;
+      const Status status = graph.addStep(c.odometry, c.information, closures, c.closures, &r);
+      if (status != Status::Ok) worst = status;
+      solver->solve(false);
+      folded += r.folded;
+      dropped += r.dropped;
+      offsets += r.node_added ? 0 : 1;
+      places[s] = graph.current();
+    }
+  });
+  checkNoHeapCalls(calls, "compact pose graph, 3000 steps on 100 nodes");
+  CHECK(worst == Status::Ok);
+  CHECK(rejected == static_cast<Index>((steps.size() - 1) / 50));
+  CHECK(graph.nodes() == 100);
+  CHECK(offsets > 2800);
+  CHECK(folded > 0);
+  MESSAGE("folded " << folded << ", dropped " << dropped);
 }
 
 #else  // !defined(__GLIBC__)

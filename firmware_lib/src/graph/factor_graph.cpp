@@ -157,6 +157,25 @@ Index FactorGraph<Model>::appendFactor(int kind, Index first, Index second) {
   return f;
 }
 
+// The newest factor was linked last: its entries are the last ones and head its variables' lists.
+template <class Model>
+void FactorGraph<Model>::takeOutNewestFactor() {
+  LSLAM_ASSERT(!in_update_ && num_factors_ > 0);
+  const Index f = num_factors_ - 1;
+  for (const Index v : {a_.second_variable[f], a_.first_variable[f]}) {
+    if (v == kNoIndex) continue;
+    const Index e = a_.first_entry[v];
+    LSLAM_ASSERT(e == num_entries_ - 1 && a_.entry_factor[e] == f);
+    a_.first_entry[v] = a_.next_entry[e];
+    --num_entries_;
+  }
+  num_factor_values_ -= factorValuesOfKind(a_.factor_kind[f]);
+  --num_factors_;
+  committed_factors_ = num_factors_;
+  committed_factor_values_ = num_factor_values_;
+  committed_entries_ = num_entries_;
+}
+
 template <class Model>
 void FactorGraph<Model>::disablePrior(Index f) {
   LSLAM_ASSERT(in_update_ && disabled_ == kNoIndex && f >= 0 && f < committed_factors_ &&

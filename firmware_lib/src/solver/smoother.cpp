@@ -60,6 +60,24 @@ Index posePriors(const ModelFactorInput<Model>* factors, Index num_factors) {
   return priors;
 }
 
+}  // namespace
+
+namespace detail {
+// A between factor of two poses measured as a pose (addFolded's kinds).
+template <class F, class Pose, bool Binary = F::Variables::kSize == 2>
+struct IsPoseBetween : std::false_type {};
+template <class F, class Pose>
+struct IsPoseBetween<F, Pose, true>
+    : std::bool_constant<std::is_same_v<TypeAtT<0, typename F::Variables>, Pose> &&
+                         std::is_same_v<TypeAtT<1, typename F::Variables>, Pose> &&
+                         std::is_same_v<typename F::Measurement, Pose> &&
+                         F::kErrorDim == Pose::kDof> {};
+template <class F, class Pose>
+inline constexpr bool kPoseBetween = IsPoseBetween<F, Pose>::value;
+}  // namespace detail
+
+namespace {
+
 // The factorization work of an iteration, added to the call's.
 void addWork(UpdateResult& into, const UpdateResult& step) {
   into.variables_relinearized += step.variables_relinearized;
@@ -144,6 +162,40 @@ Status Smoother<Model>::update(const Variable* variables, Index num_variables,
   LSLAM_DEBUG_ASSERT(!(plan.prepare_ordering && r.reordered));
   if (plan.prepare_ordering) r.ordering_prepared = ordering_.prepareOrdering();
   if (options_.solve_after_update) solve(false, &r);
+  return Status::Ok;
+}
+
+template <class Model>
+Status Smoother<Model>::addFolded(const Measurement& factor, Index into, UpdateResult* result) {
+  bool matches = false;
+  if (into >= 0 && into < graph_.factors() && into != gauge_.anchorFactor() &&
+      graph_.factorKind(into) == factor.kind) {
+    visitKind<typename Model::Factors>(factor.kind, [&](auto* tag) {
+      using F = std::remove_pointer_t<decltype(tag)>;
+      if constexpr (detail::kPoseBetween<F, Pose>) {
+        matches = ids_[0].find(factor.ids[0]) == graph_.firstVariable(into) &&
+                  ids_[0].find(factor.ids[1]) == graph_.secondVariable(into);
+      }
+    });
+  }
+  if (!matches) {
+    if (result != nullptr) *result = UpdateResult{Status::InvalidArgument};
+    return Status::InvalidArgument;
+  }
+  const Status s = update(nullptr, 0, &factor, 1, result);
+  if (s != Status::Ok) return s;
+  visitKind<typename Model::Factors>(factor.kind, [&](auto* tag) {
+    using F = std::remove_pointer_t<decltype(tag)>;
+    if constexpr (detail::kPoseBetween<F, Pose>) {
+      const Index newest = graph_.factors() - 1;
+      Eigen::Matrix<double, F::kErrorDim, F::kErrorDim> information;
+      const Pose z = mergedMeasurement(graph_.template measurement<F>(into),
+                                       graph_.template information<F>(into),
+                                       graph_.template measurement<F>(newest),
+                                       graph_.template information<F>(newest), &information);
+      graph_.template foldNewestFactor<F>(into, z, information);
+    }
+  });
   return Status::Ok;
 }
 

@@ -35,6 +35,8 @@ struct RunArgs {
   StepOrder order = StepOrder::Online;
   int solve_every = 1;
   Index factor_blocks = 0;  // the solver's block pool (0: sized from the dataset)
+  Index max_poses = 0;      // > 0: a compact pose graph of at most this many poses
+  bool batch = true;        // solve the batch reference (--no-batch: not)
   bool json = false;
   std::string csv, out, report;  // empty: not written
   std::string truth;             // ground truth to score against (empty: none)

@@ -12,6 +12,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -54,7 +55,23 @@ struct IncrementalOptions {
   double progress_interval_s = 0.5;
   // The Cholesky factor's block pool; 0: modelCapacities' rule.
   Index factor_blocks = 0;
+  // > 0: a CompactPoseGraph of at most this many nodes (pose graphs, online order), every pose of
+  // the file a place on them; 0: full smoothing.
+  Index max_poses = 0;
 };
+
+// What a compact run (IncrementalOptions::max_poses) did besides its steps.
+struct CompactStats {
+  Index nodes = 0;        // poses the solver holds
+  Index node_steps = 0;   // steps that added a node
+  Index folded = 0;       // loop closures merged into a factor already there
+  Index dropped = 0;      // loop closures that found no room
+  Index relocalized = 0;  // steps that moved the current pose to a loop closure's node
+};
+
+// The factors a compact run's solver holds per node: on the grid worlds the block pool binds
+// first (CompactPoseGraph::kNewPairPoolShare), and 4 or 16 per node run the same.
+inline constexpr Index kCompactFactorsPerNode = 4;
 
 struct ModelRun {
   ModelEstimate initial;   // each variable's value when it was introduced (the batch starts here)
@@ -71,6 +88,7 @@ struct ModelRun {
   Index reorders = 0;
   VariableKey anchor{VariableRole::Pose, -1};  // the pose the solver anchors (id -1: none)
   std::string gauge_note;  // "file:line: FIX ..." when the file fixes another pose (else empty)
+  std::optional<CompactStats> compact;  // a compact run's (max_poses > 0)
 };
 
 // Runs `d` in options.order (file order: pose graphs only, else std::invalid_argument). The solver
@@ -91,6 +109,13 @@ ModelRun runModelIncremental(const ModelDataset& d, const IncrementalOptions& op
 // batchFactorBlocks(d) (at least the variables);
 // block values for the largest block size.
 SmootherCapacities modelCapacities(const ModelDataset& d, StepOrder order, Index factor_blocks = 0);
+
+// The capacities of a compact run's solver (IncrementalOptions::max_poses): max_poses poses (at
+// most the file's), kCompactFactorsPerNode factors per pose, and a block pool of `factor_blocks`
+// or, if 0, modelCapacities' margin times the batch fill of the graph of the first max_poses
+// online steps (the run's full-smoothing part; CompactPoseGraph adds new pairs up to
+// kNewPairPoolShare of the pool, about 1.6 times that fill).
+SmootherCapacities compactCapacities(const ModelDataset& d, Index max_poses, Index factor_blocks);
 
 // The nonzero blocks (variable x variable, the diagonal included) of the Cholesky factor of the
 // whole dataset's normal equations under a COLAMD ordering of its block pattern.

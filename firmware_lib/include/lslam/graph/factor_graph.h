@@ -255,18 +255,29 @@ class FactorGraph final : public detail::LinearTypesOf<ModelBlockSizes<Model>>::
       LSLAM_ASSERT(second == kNoIndex);
     }
     const Index f = appendFactor(kFactorKind<Model, F>, first, second);
-    double* values = a_.factor_values + a_.factor_offset[f];
-    StoredValue<typename F::Measurement>::store(z, values);
-    Eigen::Matrix<double, F::kErrorDim, F::kErrorDim> omega = information;
-    symmetrize(omega);
-    Eigen::Map<Eigen::Matrix<double, F::kErrorDim, F::kErrorDim>>(
-        values + StoredValue<typename F::Measurement>::kSize) = omega;
+    storeFactorValues<F>(f, z, information);
     return f;
   }
   // Takes a committed unary factor (a prior) out of the problem: its information becomes zero, so
   // that it adds nothing to Lambda, eta or the error (it stays in its variable's factor list). At
   // most one per update; a rollback restores it. assembleColumnChange subtracts its old share.
   void disablePrior(Index factor);
+  // Outside an update: writes (z, information) over committed factor `into` and takes out the
+  // newest factor, which must be of the same kind on the same variables (Smoother::addFolded: the
+  // newest one's measurement merged into `into`'s). The graph then holds one factor where the
+  // factorization added two; see addFolded for what that trades.
+  template <class F>
+  void foldNewestFactor(Index into, const typename F::Measurement& z,
+                        const Eigen::Matrix<double, F::kErrorDim, F::kErrorDim>& information) {
+    const Index newest = num_factors_ - 1;
+    LSLAM_ASSERT(!in_update_ && into >= 0 && into < newest &&
+                 a_.factor_kind[into] == (kFactorKind<Model, F>)&&a_.factor_kind[newest] ==
+                     a_.factor_kind[into] &&
+                 a_.first_variable[newest] == a_.first_variable[into] &&
+                 a_.second_variable[newest] == a_.second_variable[into]);
+    storeFactorValues<F>(into, z, information);
+    takeOutNewestFactor();
+  }
   // Stages `point` as the linearization point of v (of kind V) until commit.
   template <class V>
   void relinearize(Index v, const V& point) {
@@ -363,6 +374,19 @@ class FactorGraph final : public detail::LinearTypesOf<ModelBlockSizes<Model>>::
   Index appendVariable(int kind);
   Index appendFactor(int kind, Index first, Index second);
   void link(Index v, Index f);
+  // Writes factor f's measurement and information (stored as its symmetric part).
+  template <class F>
+  void storeFactorValues(Index f, const typename F::Measurement& z,
+                         const Eigen::Matrix<double, F::kErrorDim, F::kErrorDim>& information) {
+    double* values = a_.factor_values + a_.factor_offset[f];
+    StoredValue<typename F::Measurement>::store(z, values);
+    Eigen::Matrix<double, F::kErrorDim, F::kErrorDim> omega = information;
+    symmetrize(omega);
+    Eigen::Map<Eigen::Matrix<double, F::kErrorDim, F::kErrorDim>>(
+        values + StoredValue<typename F::Measurement>::kSize) = omega;
+  }
+  // Unlinks and forgets the newest committed factor (outside an update).
+  void takeOutNewestFactor();
   void stage(Index v);
   // Adds sign times factor f's share of column `variable` and of eta, linearized at the committed
   // points (committed) or the current ones, with the information at `information`. With `later`

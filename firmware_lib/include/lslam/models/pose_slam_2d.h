@@ -14,6 +14,8 @@ struct PoseSlam2D {
   using Factors = TypeList<PriorSE2Factor, BetweenSE2Factor>;
   // The factor the solver anchors the first pose with (see smoother.h, the gauge).
   using PosePrior = PriorSE2Factor;
+  // The odometry and loop-closure kind (CompactPoseGraph derives its measurements in it).
+  using PoseBetween = BetweenSE2Factor;
 };
 
 }  // namespace lslam

@@ -14,6 +14,8 @@ struct PoseSlam3D {
   using Factors = TypeList<PriorSE3Factor, BetweenSE3Factor>;
   // The factor the solver anchors the first pose with (see smoother.h, the gauge).
   using PosePrior = PriorSE3Factor;
+  // The odometry and loop-closure kind (CompactPoseGraph derives its measurements in it).
+  using PoseBetween = BetweenSE3Factor;
 };
 
 }  // namespace lslam

@@ -17,6 +17,8 @@ struct Slam2D {
                            PointObservationSE2Factor, RangeBearingSE2Factor>;
   // The factor the solver anchors the first pose with (see smoother.h, the gauge).
   using PosePrior = PriorSE2Factor;
+  // The odometry and loop-closure kind (CompactPoseGraph derives its measurements in it).
+  using PoseBetween = BetweenSE2Factor;
 };
 
 }  // namespace lslam

@@ -46,6 +46,7 @@
 #include <type_traits>
 
 #include "lslam/eigen.h"
+#include "lslam/factors/merged_measurement.h"
 #include "lslam/graph/factor_graph.h"
 #include "lslam/linear/colamd_ordering.h"
 #include "lslam/linear/incremental_cholesky.h"
@@ -150,6 +151,17 @@ class Smoother {
   [[nodiscard]] Status update(const Variable* variables, Index num_variables,
                               const Measurement* factors, Index num_factors,
                               UpdateResult* result = nullptr);
+  // A repeated measurement of a pair that factor `into` already joins: update() adds it (a row
+  // update of L, as any loop closure), then the graph stores it merged into `into`
+  // (mergedMeasurement) instead of as a factor of its own, so that repeated loop closures between
+  // the same poses take no more factor memory. `into` must be a between factor of the caller's of
+  // the same kind on the same ids in the same order (else InvalidArgument, nothing changed).
+  // What it trades: L keeps both shares until the next full refactorization, while the graph's
+  // merged factor differs from their sum at second order in the measurements' spread; a
+  // relinearization subtracts the merged factor's share, so that difference stays in L until a
+  // reordering rebuilds it from the graph.
+  [[nodiscard]] Status addFolded(const Measurement& factor, Index into,
+                                 UpdateResult* result = nullptr);
   // Back-substitution on demand (partial per options, or full), then up to
   // SolverOptions::urgent_iterations relinearizations of urgent candidates, each solved again.
   void solve(bool full, UpdateResult* result = nullptr);

@@ -1,0 +1,111 @@
+#pragma once
+// Mapping for as long as the robot runs in the memory of one Smoother: a pose graph that stops
+// growing at the smoother's pose capacity and keeps learning from every later loop closure.
+//
+// The method (a reduced pose graph, after Johannsson et al., ICRA 2013, with Ila et al.'s "a
+// link only when informative" in its cheapest form, a merge):
+//  - Every pose of the trajectory is a Place: a node (a pose variable of the smoother) and the
+//    pose's offset from it, with the offset's covariance (zero for a node).
+//  - While the smoother has room, each step's pose is a new node joined to the current place by
+//    its odometry (composed with the current offset), and the graph is full smoothing.
+//  - At capacity the trajectory rides on the nodes: odometry composes onto the current offset
+//    (its covariance grows, first order), and a loop closure from a place seen earlier (node b,
+//    offset T_b) to the current pose (node a, offset T_a) becomes a between factor b -> a of
+//    measurement T_b z T_a^-1, whose covariance is the three parts' propagated to first order.
+//    It then relocalizes: the current pose moves to node b with offset T_b z when that offset
+//    is the more certain (smaller covariance trace).
+//  - A derived factor on a pair the graph already joins is folded into that factor
+//    (Smoother::addFolded): factors do not grow with time either. A new pair takes a factor while
+//    the smoother has one free; past that, and when the Cholesky factor's block pool is full, the
+//    loop closure is dropped (counted in the step's result) and only relocalizes.
+// What it trades: past capacity a pose is as good as its node and the odometry since the last
+// loop closure (no later measurement refines the offset); new places past capacity are not
+// mapped, only tracked; a folded factor is the information-weighted mean of its measurements.
+//
+// Every step's inputs are checked before anything changes; a rejected step changes nothing. Node
+// ids are 0, 1, 2, ... in the order they were added (the smoother's pose ids).
+#include "lslam/eigen.h"
+#include "lslam/solver/smoother.h"
+#include "lslam/status.h"
+
+namespace lslam {
+
+template <class Pose>
+struct Place {
+  using Covariance = Eigen::Matrix<double, Pose::kDof, Pose::kDof>;
+  Index node = kNoIndex;                       // its graph index, which is also its pose id
+  Pose offset;                                 // the pose in the node's frame
+  Covariance covariance = Covariance::Zero();  // the offset's (right perturbation); 0 at a node
+  bool atNode() const { return covariance.isZero(0.0); }
+};
+
+// A loop closure of a step: the pose seen (a place the caller kept from an earlier step) and
+// the measured pose of the current one in its frame, with its information.
+template <class Pose>
+struct PlaceClosure {
+  Place<Pose> seen;
+  Pose measurement;
+  Eigen::Matrix<double, Pose::kDof, Pose::kDof> information;
+};
+
+// What a step did.
+struct CompactStepResult {
+  Status status = Status::Ok;
+  bool node_added = false;   // the step's pose is a new node
+  bool relocalized = false;  // the current place moved to a loop closure's node
+  Index factors_added = 0;   // loop closures on a new pair
+  Index folded = 0;          // loop closures merged into a factor already there
+  Index dropped = 0;         // loop closures that found no room (factors or block pool)
+  Index updates = 0;         // smoother updates the step made
+  std::int64_t block_products = 0;
+  bool reordered = false;
+};
+
+template <class Model>
+class CompactPoseGraph {
+ public:
+  using Pose = TypeAtT<0, typename Model::Variables>;
+  using Between = typename Model::PoseBetween;
+  using Matrix = Eigen::Matrix<double, Pose::kDof, Pose::kDof>;
+  using PlaceT = Place<Pose>;
+  using Closure = PlaceClosure<Pose>;
+  static_assert(Model::Variables::kSize == 1, "a pose-only model");
+  // New pairs stop once the live factor holds this share of the block pool (roomForNewPair): a
+  // reordering stages a copy beside it, and the fill of later folds needs the rest.
+  static constexpr double kNewPairPoolShare = 0.4;
+
+  explicit CompactPoseGraph(Smoother<Model>& smoother) : smoother_(smoother) {}
+
+  // The first pose, node 0 (the smoother must be empty).
+  [[nodiscard]] Status start(const Pose& first, UpdateResult* result = nullptr);
+  // One step: the odometry from the current pose to the new one, then its loop closures.
+  // NonFiniteInput / InformationNotPositiveDefinite for a bad measurement, UnknownVariable for a
+  // place whose node is not in the graph, InvalidArgument for a covariance that is not finite and
+  // symmetric or a count < 0 (nothing changed).
+  [[nodiscard]] Status addStep(const Pose& odometry, const Matrix& information,
+                               const Closure* closures, Index num_closures,
+                               CompactStepResult* result = nullptr);
+
+  // The current pose's place (the caller keeps it to name this pose in later loop closures).
+  const PlaceT& current() const { return current_; }
+  // The estimate of a place: its node's estimate composed with the offset.
+  Pose estimate(const PlaceT& place) const;
+  Index nodes() const { return smoother_.poses(); }
+  const Smoother<Model>& smoother() const { return smoother_; }
+
+ private:
+  Status check(const Pose& odometry, const Matrix& information, const Closure* closures,
+               Index num_closures) const;
+  // The between factor b -> a or a -> b (kNoIndex if none); reversed when it is a -> b.
+  Index factorBetween(Index b, Index a, bool* reversed) const;
+  bool roomForNewPair() const;
+  void closeLoop(const Closure& closure, CompactStepResult& r);
+  void relocalize(Index b, const Pose& seen, const Matrix& seen_covariance, CompactStepResult& r);
+  Pose estimateAt(Index node) const;
+  void record(const UpdateResult& u, CompactStepResult& r) const;
+
+  Smoother<Model>& smoother_;
+  PlaceT current_;
+};
+
+}  // namespace lslam
