@@ -133,13 +133,27 @@ std::string toJson(const RunArgs& args, const RunSummary& r) {
      << ", \"landmarks\": " << r.landmarks << ", \"factors\": " << r.factors
      << ", \"steps\": " << r.steps << ", \"order\": \"" << r.order << "\""
      << ", \"solve_every\": " << args.solve_every << ", \"chi2_initial\": " << r.chi2_initial
-     << ", \"chi2_incremental\": " << r.chi2_incremental << ", \"chi2_batch\": " << r.chi2_batch
-     << ", \"batch_converged\": " << (r.batch_converged ? "true" : "false")
-     << ", \"batch_iterations\": " << r.batch_iterations << ", \"batch_s\": " << r.batch_seconds
+     << ", \"chi2_incremental\": " << r.chi2_incremental;
+  // Without the batch (--no-batch) its figures are null, not zeros.
+  const auto batchValue = [&](auto value) {
+    std::ostringstream v;
+    v.precision(10);
+    if (args.batch) {
+      v << value;
+    } else {
+      v << "null";
+    }
+    return v.str();
+  };
+  js << ", \"chi2_batch\": " << batchValue(r.chi2_batch)
+     << ", \"batch_converged\": " << (args.batch ? (r.batch_converged ? "true" : "false") : "null")
+     << ", \"batch_iterations\": " << batchValue(r.batch_iterations)
+     << ", \"batch_s\": " << batchValue(r.batch_seconds)
      << ", \"batch_stop_reason\": " << jsonString(r.batch_stop_reason)
-     << ", \"max_position_diff\": " << r.max_position_diff << ", \"total_s\": " << r.total_seconds
-     << ", \"step_ms\": {\"median\": " << r.median << ", \"p99\": " << r.p99
-     << ", \"max\": " << r.worst << "}, \"odometry_step_ms\": {\"median\": " << r.odometry_median
+     << ", \"max_position_diff\": " << batchValue(r.max_position_diff)
+     << ", \"total_s\": " << r.total_seconds << ", \"step_ms\": {\"median\": " << r.median
+     << ", \"p99\": " << r.p99 << ", \"max\": " << r.worst
+     << "}, \"odometry_step_ms\": {\"median\": " << r.odometry_median
      << ", \"max\": " << r.odometry_max << "}, \"loop_step_ms\": {\"median\": " << r.loop_median
      << ", \"max\": " << r.loop_max << "}, \"reorders\": " << r.reorders
      << ", \"factor_blocks\": " << r.factor_blocks
@@ -176,11 +190,15 @@ void printSummary(const RunArgs& args, const RunSummary& r) {
   std::printf("poses / landmarks / measurements  %zu / %zu / %zu in %zu steps\n", r.poses,
               r.landmarks, r.factors, r.steps);
   std::printf("chi2 initial       %.6g\n", r.chi2_initial);
-  std::printf("chi2 incremental   %.6f  (%+.4f%% vs batch)\n", r.chi2_incremental, rel);
-  std::printf("chi2 batch         %.6f  (%s, %d iterations, %.3f s: %s)\n", r.chi2_batch,
-              r.batch_converged ? "converged" : "NOT CONVERGED", r.batch_iterations,
-              r.batch_seconds, r.batch_stop_reason.c_str());
-  std::printf("max position diff  %.3g m (incremental vs batch)\n", r.max_position_diff);
+  if (args.batch) {
+    std::printf("chi2 incremental   %.6f  (%+.4f%% vs batch)\n", r.chi2_incremental, rel);
+    std::printf("chi2 batch         %.6f  (%s, %d iterations, %.3f s: %s)\n", r.chi2_batch,
+                r.batch_converged ? "converged" : "NOT CONVERGED", r.batch_iterations,
+                r.batch_seconds, r.batch_stop_reason.c_str());
+    std::printf("max position diff  %.3g m (incremental vs batch)\n", r.max_position_diff);
+  } else {
+    std::printf("chi2 incremental   %.6f  (batch not run: --no-batch)\n", r.chi2_incremental);
+  }
   std::printf("incremental total  %.4f s, per step median %.4f ms, p99 %.4f ms, max %.4f ms\n",
               r.total_seconds, r.median, r.p99, r.worst);
   std::printf("                   odometry steps max %.4f ms, loop-closure steps max %.4f ms\n",

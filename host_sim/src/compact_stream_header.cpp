@@ -121,6 +121,11 @@ HostRun runStream(const CompactStream& stream, const SmootherCapacities& capacit
     const Status status = graph.addStep(stream.odometry[s - 1], stream.odometry_information,
                                         closures.data(), static_cast<Index>(closures.size()), &r);
     if (status != Status::Ok) throw std::logic_error("compactStreamHeader: a step refused");
+    // The stream names nodes by pose id: the first max_poses poses must all be nodes.
+    if (r.node_added != (static_cast<Index>(s) < capacities.poses)) {
+      throw std::logic_error("compactStreamHeader: pose " + std::to_string(s) +
+                             (r.node_added ? " became" : " did not become") + " a node");
+    }
     if (r.updates > 0) solver->solve(false);
   }
   HostRun out;

@@ -336,6 +336,9 @@ class CompactRunner {
   using Pose = TypeAtT<0, typename Model::Variables>;
   using Between = typename Model::PoseBetween;
   using Matrix = Eigen::Matrix<double, Pose::kDof, Pose::kDof>;
+  using Graph = CompactPoseGraph<Model>;
+  using Landmark = typename Graph::Landmark;
+  using Observation = typename Graph::Observation;
   using Clock = std::chrono::steady_clock;
 
   CompactRunner(const ModelDataset& d, const IncrementalOptions& options)
@@ -358,36 +361,49 @@ class CompactRunner {
 
     std::unordered_map<std::int64_t, Place<Pose>> places;
     std::vector<PlaceClosure<Pose>> closures;
+    std::vector<Observation> observations;
     std::int64_t previous = -1;
     for (std::size_t s = 0; s < steps.size(); ++s) {
       const ModelStep& step = steps[s];
       StepRecord record;
       record.index = s;
       record.kind = classify(d_, step, previous);
-      if (step.new_pose.id < 0 || !step.new_landmarks.empty()) {
+      if (step.new_pose.id < 0) {
         throw std::invalid_argument(d_.name +
-                                    ": --max-poses runs pose graphs whose every step "
+                                    ": --max-poses runs streams whose every step "
                                     "adds a pose");
       }
       Status status = Status::Ok;
       Pose odometry;
       Matrix information = Matrix::Zero();
       closures.clear();
+      observations.clear();
       if (s == 0) {
-        if (!step.factors.empty()) {
-          throw std::invalid_argument(d_.name + ": --max-poses: the first pose has factors");
+        for (const std::size_t k : step.factors) {
+          const ModelFactor& f = d_.factors[k];
+          if (!observation(modelFactorInput<Model>(d_, f), f, step, observations)) {
+            throw DatasetError(d_.name, f.line, "--max-poses: the first pose has a between factor");
+          }
         }
         const Pose first = toValue<Pose>(initialValue(d_, step, step.new_pose, {}));
         const auto t0 = Clock::now();
         status = graph.start(first, &record.result);
+        CompactStepResult c;
+        if (status == Status::Ok && !observations.empty()) {
+          status = graph.addObservations(observations.data(),
+                                         static_cast<Index>(observations.size()), &c);
+          if (status == Status::Ok && c.updates > 0) solver->solve(false);
+        }
         record.microseconds = std::chrono::duration<double, std::micro>(Clock::now() - t0).count();
       } else {
         bool have_odometry = false;
         for (const std::size_t k : step.factors) {
           const ModelFactor& f = d_.factors[k];
           const ModelFactorInput<Model> in = modelFactorInput<Model>(d_, f);
+          if (observation(in, f, step, observations)) continue;
           if (in.kind != kFactorKind<Model, Between>) {
-            throw DatasetError(d_.name, f.line, "--max-poses takes between factors only");
+            throw DatasetError(d_.name, f.line,
+                               "--max-poses takes between factors and point observations");
           }
           // Every measurement as the new pose seen from the other one.
           Pose z = in.template measurementAs<Between>();
@@ -413,10 +429,14 @@ class CompactRunner {
                              "--max-poses: pose " + std::to_string(step.new_pose.id) +
                                  " has no odometry from pose " + std::to_string(previous));
         }
+        // The pose's value when introduced: the current place's estimate and the odometry.
+        out.initial[step.new_pose] =
+            toParameters(graph.estimate(graph.current()).compose(odometry));
         CompactStepResult c;
         const auto t0 = Clock::now();
         status = graph.addStep(odometry, information, closures.data(),
-                               static_cast<Index>(closures.size()), &c);
+                               static_cast<Index>(closures.size()), observations.data(),
+                               static_cast<Index>(observations.size()), &c);
         const auto t_solve = Clock::now();
         if (status == Status::Ok && c.updates > 0) solver->solve(false, &record.result);
         const auto t1 = Clock::now();
@@ -427,7 +447,6 @@ class CompactRunner {
         stats.folded += c.folded;
         stats.dropped += c.dropped;
         stats.relocalized += c.relocalized ? 1 : 0;
-        stats.node_steps += c.node_added ? 1 : 0;
       }
       if (status != Status::Ok) rejectStep(d_, step, s, status, "");
       record.result.factor_blocks = solver->factorBlocks();
@@ -436,11 +455,20 @@ class CompactRunner {
       out.peak_factor_blocks = std::max(out.peak_factor_blocks, record.result.factor_blocks);
       out.steps.push_back(record);
       places[step.new_pose.id] = graph.current();
-      out.initial[step.new_pose] = toParameters(graph.estimate(graph.current()));
+      if (s == 0) out.initial[step.new_pose] = toParameters(graph.estimate(graph.current()));
+      introduceLandmarks(graph, step, observations, out.initial);
       previous = step.new_pose.id;
     }
     for (const auto& [id, place] : places) {
       out.estimate[VariableKey{VariableRole::Pose, id}] = toParameters(graph.estimate(place));
+    }
+    // Landmarks: the solver's estimate; one it had no room for stays at its first sighting.
+    for (const auto& [key, value] : out.initial) {
+      if (key.role != VariableRole::Landmark) continue;
+      const Index l = solver->template indexOf<Landmark>(key.id);
+      out.estimate[key] =
+          l == kNoIndex ? value : toParameters(solver->template estimateAt<Landmark>(l));
+      out.landmarks += l == kNoIndex ? 0 : 1;
     }
     out.poses = static_cast<Index>(places.size());
     out.factors = solver->factors();
@@ -451,6 +479,51 @@ class CompactRunner {
   }
 
  private:
+  // Takes the model's point observation of the step's pose into `observations` (true), or leaves
+  // any other factor (false).
+  bool observation(const ModelFactorInput<Model>& in, const ModelFactor& f, const ModelStep& step,
+                   std::vector<Observation>& observations) const {
+    if constexpr (Graph::kLandmarks) {
+      using Observed = typename Model::PointObservation;
+      if (in.kind != kFactorKind<Model, Observed>) return false;
+      if (f.first.id != step.new_pose.id) {
+        throw DatasetError(d_.name, f.line, "--max-poses: an observation from an earlier pose");
+      }
+      observations.push_back(Observation{f.second.id, in.template measurementAs<Observed>(),
+                                         in.template informationAs<Observed>()});
+      return true;
+    } else {
+      static_cast<void>(in);
+      static_cast<void>(f);
+      static_cast<void>(step);
+      static_cast<void>(observations);
+      return false;
+    }
+  }
+
+  // The initial value of each landmark the step introduces: its first sighting from the step's
+  // place.
+  void introduceLandmarks(const Graph& graph, const ModelStep& step,
+                          const std::vector<Observation>& observations,
+                          ModelEstimate& initial) const {
+    if constexpr (Graph::kLandmarks) {
+      using Observed = typename Model::PointObservation;
+      for (const VariableKey& key : step.new_landmarks) {
+        for (const Observation& o : observations) {
+          if (o.landmark != key.id) continue;
+          initial[key] =
+              toParameters(Observed::initialize(graph.estimate(graph.current()), o.position));
+          break;
+        }
+      }
+    } else {
+      static_cast<void>(graph);
+      static_cast<void>(step);
+      static_cast<void>(observations);
+      static_cast<void>(initial);
+    }
+  }
+
   const ModelDataset& d_;
   IncrementalOptions options_;
 };
@@ -652,7 +725,8 @@ SmootherCapacities capacitiesOf(const ModelDataset& d, StepOrder order, Index fa
 ModelRun runModelIncremental(const ModelDataset& d, const IncrementalOptions& options) {
   if (options.max_poses > 0) {
     if (hasLandmarks(d)) {
-      throw std::invalid_argument(d.name + ": --max-poses runs pose graphs (no landmarks yet)");
+      if (d.dimension == 2) return CompactRunner<Slam2D>(d, options).run();
+      return CompactRunner<Slam3D>(d, options).run();
     }
     if (isPoseGraph2D(d)) return CompactRunner<PoseSlam2D>(d, options).run();
     return CompactRunner<PoseSlam3D>(d, options).run();
@@ -672,10 +746,12 @@ SmootherCapacities compactCapacities(const ModelDataset& d, Index max_poses, Ind
   const std::vector<ModelStep> steps = buildModelSteps(d, StepOrder::Online);
   SmootherCapacities c;
   c.poses = std::min(max_poses, static_cast<Index>(steps.size()));
-  c.factors = 1 + kCompactFactorsPerNode * c.poses;
-  const Index between =
-      d.dimension == 2 ? kFactorValues<BetweenSE2Factor> : kFactorValues<BetweenSE3Factor>;
-  c.factor_values = c.factors * between;  // a prior takes no more than a between factor
+  for (const ModelStep& step : steps) c.landmarks += static_cast<Index>(step.new_landmarks.size());
+  c.factors = 1 + kCompactFactorsPerNode * (c.poses + c.landmarks);
+  // Every factor at the largest kind's size (a between factor's).
+  const bool planar = d.dimension == 2;
+  const Index largest = planar ? kFactorValues<BetweenSE2Factor> : kFactorValues<BetweenSE3Factor>;
+  c.factor_values = c.factors * largest;
   if (factor_blocks > 0) {
     c.factor_blocks = factor_blocks;
   } else {
@@ -686,6 +762,9 @@ SmootherCapacities compactCapacities(const ModelDataset& d, Index max_poses, Ind
     }
     c.factor_blocks = blockPool(batchFactorBlocks(first), c.poses);
   }
+  // Mixed block sizes: every block at the largest size.
+  const Index largest_block = planar ? 9 : 36;
+  c.factor_block_values = c.landmarks > 0 ? c.factor_blocks * largest_block : 0;
   return c;
 }
 

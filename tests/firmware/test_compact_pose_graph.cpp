@@ -236,6 +236,7 @@ TEST_CASE("a compact graph of 200 poses maps a revisit-heavy world for 5000 step
   places[0] = graph.current();
   Index folded = 0;
   Index dropped = 0;
+  Index late_folds = 0;  // in the last 1,000 steps
   Index not_ok = 0;
   for (std::size_t s = 1; s < steps.size(); ++s) {
     const WorldStep& w = steps[s];
@@ -248,6 +249,7 @@ TEST_CASE("a compact graph of 200 poses maps a revisit-heavy world for 5000 step
     solver->solve(false);
     folded += r.folded;
     dropped += r.dropped;
+    late_folds += s + 1000 >= steps.size() ? r.folded : 0;
     CHECK(r.node_added == (s < 200));
     places[s] = graph.current();
   }
@@ -255,7 +257,8 @@ TEST_CASE("a compact graph of 200 poses maps a revisit-heavy world for 5000 step
   CHECK(graph.nodes() == 200);
   CHECK(solver->factors() <= CompactSmoother::max_factors);
   MESSAGE("folded " << folded << ", dropped " << dropped << ", factors " << solver->factors());
-  CHECK(folded > 300);  // the graph keeps learning past its capacity
+  CHECK(folded > 300);    // the graph keeps learning past its capacity...
+  CHECK(late_folds > 0);  // ...to the end
 
   // The map (the 200 nodes) against the truth, and against the independent batch optimum of the
   // first 200 steps (the map the capacity would have frozen): the compact map holds those
@@ -335,6 +338,10 @@ TEST_CASE("a rejected step past capacity changes nothing") {
       bad_info[0].information(2, 2) = -1.0;
       std::vector<Closure> bad_covariance = closures;
       bad_covariance[0].seen.covariance(0, 1) = 1.0;
+      std::vector<Closure> indefinite = closures;  // symmetric, an eigenvalue below zero
+      indefinite[0].seen.covariance = Vec3(1e-4, -1e-4, 1e-6).asDiagonal();
+      std::vector<Closure> moved_node = closures;  // zero covariance (a node) but an offset
+      moved_node[0].seen = Place<SE2>{0, SE2(0.5, 0.0, 0.0), Mat3::Zero()};
       struct Bad {
         SE2 odometry;
         Mat3 information;
@@ -349,6 +356,8 @@ TEST_CASE("a rejected step past capacity changes nothing") {
           {z, info, &bad_info, 1, Status::InformationNotPositiveDefinite},
           {z, info, &bad_covariance, 1, Status::InvalidArgument},
           {z, info, &closures, -1, Status::InvalidArgument},
+          {z, info, &indefinite, 1, Status::InvalidArgument},
+          {z, info, &moved_node, 1, Status::InvalidArgument},
       };
       const double chi2 = solver->chi2();
       const Index factors = solver->factors();
@@ -375,4 +384,22 @@ TEST_CASE("a rejected step past capacity changes nothing") {
   }
   CHECK(graph.nodes() == 64);
   CHECK(rejected > 100);
+}
+
+TEST_CASE("a compact graph refuses steps before start() and observations of a pose-only model") {
+  auto solver = std::make_unique<TwinSmoother>();
+  Graph graph(*solver);
+  const Mat3 info = Mat3::Identity() * 100.0;
+  CompactStepResult r;
+  CHECK(graph.addStep(SE2(1.0, 0.0, 0.0), info, nullptr, 0, &r) == Status::InvalidArgument);
+  CHECK(solver->variables() == 0);
+  REQUIRE(graph.start(SE2()) == Status::Ok);
+  CHECK(graph.start(SE2()) == Status::InvalidArgument);  // once
+  const Graph::Observation seen{};
+  CHECK(graph.addStep(SE2(1.0, 0.0, 0.0), info, nullptr, 0, &seen, 1, &r) ==
+        Status::InvalidArgument);
+  CHECK(graph.addObservations(&seen, 1) == Status::InvalidArgument);
+  CHECK(solver->variables() == 1);
+  CHECK(graph.addStep(SE2(1.0, 0.0, 0.0), info, nullptr, 0, &r) == Status::Ok);
+  CHECK(solver->variables() == 2);
 }

@@ -1217,6 +1217,78 @@ TEST_CASE("no heap allocation while a compact pose graph maps far past its capac
   MESSAGE("folded " << folded << ", dropped " << dropped);
 }
 
+TEST_CASE("no heap allocation while a compact 3D map with landmarks runs past its capacity") {
+  // The 6 x 6 paths (covariances, the fold, the fusion) and the landmark observations: 200 steps
+  // of the 3D landmark stream on 40 nodes (each update solves: the smoother's default).
+  const std::vector<ModelStep<Slam3D>> steps = stream3D(200);
+  using Graph = lslam::CompactPoseGraph<Slam3D>;
+  using Closure = lslam::PlaceClosure<SE3>;
+  struct CompactInput {
+    SE3 odometry;
+    Mat6 information = Mat6::Identity();
+    std::vector<Closure> closures;  // seen: filled in while running, from places[from]
+    std::vector<VariableId> seen;
+    std::vector<Graph::Observation> observations;
+  };
+  std::vector<CompactInput> in(steps.size());
+  for (std::size_t k = 0; k < steps.size(); ++k) {
+    for (const auto& f : steps[k].factors) {
+      if (f.kind == lslam::kFactorKind<Slam3D, PointObservationSE3Factor>) {
+        in[k].observations.push_back(
+            Graph::Observation{f.ids[1], f.measurementAs<PointObservationSE3Factor>(),
+                               f.informationAs<PointObservationSE3Factor>()});
+      } else if (f.ids[0] == static_cast<VariableId>(k) - 1) {
+        in[k].odometry = f.measurementAs<BetweenSE3Factor>();
+        in[k].information = f.informationAs<BetweenSE3Factor>();
+      } else {
+        in[k].seen.push_back(f.ids[0]);
+        in[k].closures.push_back(Closure{lslam::Place<SE3>{}, f.measurementAs<BetweenSE3Factor>(),
+                                         f.informationAs<BetweenSE3Factor>()});
+      }
+    }
+  }
+  std::vector<lslam::Place<SE3>> places(steps.size());
+  auto solver = std::make_unique<StaticSmoother<Slam3D, 40, 60, 600, 600 * 43, 8000, 8000 * 36>>();
+  Graph graph(*solver);
+  Status worst = Status::Ok;
+  Index folded = 0;
+  Index observed = 0;
+  std::size_t failed_at = 0;
+  const HeapCalls calls = countHeapCalls([&] {
+    if (graph.start(steps[0].variables[0].get<SE3>()) != Status::Ok)
+      worst = Status::InvalidArgument;
+    if (graph.addObservations(in[0].observations.data(),
+                              static_cast<Index>(in[0].observations.size())) != Status::Ok) {
+      worst = Status::InvalidArgument;
+    }
+    places[0] = graph.current();
+    for (std::size_t k = 1; k < in.size(); ++k) {
+      CompactInput& c = in[k];
+      for (std::size_t i = 0; i < c.closures.size(); ++i) {
+        c.closures[i].seen = places[static_cast<std::size_t>(c.seen[i])];
+      }
+      lslam::CompactStepResult r;
+      const Status status = graph.addStep(
+          c.odometry, c.information, c.closures.data(), static_cast<Index>(c.closures.size()),
+          c.observations.data(), static_cast<Index>(c.observations.size()), &r);
+      if (status != Status::Ok && worst == Status::Ok) {
+        worst = status;
+        failed_at = k;
+      }
+      folded += r.folded;
+      observed += static_cast<Index>(c.observations.size());
+      places[k] = graph.current();
+    }
+  });
+  checkNoHeapCalls(calls, "compact 3D map with landmarks, 200 steps on 40 nodes");
+  INFO("first refused step " << failed_at << ": " << std::string(lslam::toString(worst)));
+  CHECK(worst == Status::Ok);
+  CHECK(graph.nodes() == 40);
+  CHECK(solver->landmarks() == 50);
+  CHECK(folded > 0);
+  CHECK(observed == 199);  // one per step after the first
+}
+
 #else  // !defined(__GLIBC__)
 
 TEST_CASE("no heap allocation after construction (skipped: needs glibc)") {

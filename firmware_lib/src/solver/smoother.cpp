@@ -74,6 +74,15 @@ struct IsPoseBetween<F, Pose, true>
                          F::kErrorDim == Pose::kDof> {};
 template <class F, class Pose>
 inline constexpr bool kPoseBetween = IsPoseBetween<F, Pose>::value;
+// The point observation of a model with landmarks (its error is linear in the measurement).
+template <class Model, class F, class = void>
+struct IsPointObservation : std::false_type {};
+template <class Model, class F>
+struct IsPointObservation<Model, F, std::void_t<typename Model::PointObservation>>
+    : std::is_same<F, typename Model::PointObservation> {};
+// The kinds addFolded merges.
+template <class Model, class F, class Pose>
+inline constexpr bool kFoldable = kPoseBetween<F, Pose> || IsPointObservation<Model, F>::value;
 }  // namespace detail
 
 namespace {
@@ -172,9 +181,11 @@ Status Smoother<Model>::addFolded(const Measurement& factor, Index into, UpdateR
       graph_.factorKind(into) == factor.kind) {
     visitKind<typename Model::Factors>(factor.kind, [&](auto* tag) {
       using F = std::remove_pointer_t<decltype(tag)>;
-      if constexpr (detail::kPoseBetween<F, Pose>) {
+      if constexpr (detail::kFoldable<Model, F, Pose>) {
+        using Vars = typename F::Variables;
+        const IdMap& second = ids_[kVariableKind<Model, TypeAtT<1, Vars>>];
         matches = ids_[0].find(factor.ids[0]) == graph_.firstVariable(into) &&
-                  ids_[0].find(factor.ids[1]) == graph_.secondVariable(into);
+                  second.find(factor.ids[1]) == graph_.secondVariable(into);
       }
     });
   }
@@ -186,13 +197,13 @@ Status Smoother<Model>::addFolded(const Measurement& factor, Index into, UpdateR
   if (s != Status::Ok) return s;
   visitKind<typename Model::Factors>(factor.kind, [&](auto* tag) {
     using F = std::remove_pointer_t<decltype(tag)>;
-    if constexpr (detail::kPoseBetween<F, Pose>) {
+    if constexpr (detail::kFoldable<Model, F, Pose>) {
       const Index newest = graph_.factors() - 1;
       Eigen::Matrix<double, F::kErrorDim, F::kErrorDim> information;
-      const Pose z = mergedMeasurement(graph_.template measurement<F>(into),
-                                       graph_.template information<F>(into),
-                                       graph_.template measurement<F>(newest),
-                                       graph_.template information<F>(newest), &information);
+      const typename F::Measurement z = mergedMeasurement(
+          graph_.template measurement<F>(into), graph_.template information<F>(into),
+          graph_.template measurement<F>(newest), graph_.template information<F>(newest),
+          &information);
       graph_.template foldNewestFactor<F>(into, z, information);
     }
   });

@@ -55,15 +55,14 @@ struct IncrementalOptions {
   double progress_interval_s = 0.5;
   // The Cholesky factor's block pool; 0: modelCapacities' rule.
   Index factor_blocks = 0;
-  // > 0: a CompactPoseGraph of at most this many nodes (pose graphs, online order), every pose of
-  // the file a place on them; 0: full smoothing.
+  // > 0: a CompactPoseGraph of at most this many nodes (online order; pose graphs, and point
+  // landmarks observed as positions), every pose of the file a place on them; 0: full smoothing.
   Index max_poses = 0;
 };
 
 // What a compact run (IncrementalOptions::max_poses) did besides its steps.
 struct CompactStats {
   Index nodes = 0;        // poses the solver holds
-  Index node_steps = 0;   // steps that added a node
   Index folded = 0;       // loop closures merged into a factor already there
   Index dropped = 0;      // loop closures that found no room
   Index relocalized = 0;  // steps that moved the current pose to a loop closure's node
@@ -111,7 +110,8 @@ ModelRun runModelIncremental(const ModelDataset& d, const IncrementalOptions& op
 SmootherCapacities modelCapacities(const ModelDataset& d, StepOrder order, Index factor_blocks = 0);
 
 // The capacities of a compact run's solver (IncrementalOptions::max_poses): max_poses poses (at
-// most the file's), kCompactFactorsPerNode factors per pose, and a block pool of `factor_blocks`
+// most the file's), every landmark of the file, kCompactFactorsPerNode factors per pose and per
+// landmark, and a block pool of `factor_blocks`
 // or, if 0, modelCapacities' margin times the batch fill of the graph of the first max_poses
 // online steps (the run's full-smoothing part; CompactPoseGraph adds new pairs up to
 // kNewPairPoolShare of the pool, about 1.6 times that fill).

@@ -7,18 +7,42 @@
 
 namespace lslam {
 
-// G: SE2 or SE3 (retract / localCoordinates in right-perturbation coordinates, the between
-// factors' error coordinates to first order).
+// The between factors' error per tangent coordinate at zero error, e = S tau: SE2's error is
+// (x, y, theta) of the residual pose (S = I); SE3's is (t, v) with v the residual quaternion's
+// vector part, about half the rotation vector (S = diag(1, 1, 1, 1/2, 1/2, 1/2)).
+template <class G>
+Eigen::Matrix<double, G::kDof, G::kDof> betweenErrorPerTangent() noexcept {
+  Eigen::Matrix<double, G::kDof, G::kDof> s = Eigen::Matrix<double, G::kDof, G::kDof>::Identity();
+  if constexpr (G::kDof == 6) s.template bottomRightCorner<3, 3>() *= 0.5;
+  return s;
+}
+
+// G: SE2 or SE3, with information in the between factors' error coordinates (retract and
+// localCoordinates work in the tangent: betweenErrorPerTangent converts).
 template <class G>
 G mergedMeasurement(const G& z1, const Eigen::Matrix<double, G::kDof, G::kDof>& information1,
                     const G& z2, const Eigen::Matrix<double, G::kDof, G::kDof>& information2,
                     Eigen::Matrix<double, G::kDof, G::kDof>* information) noexcept {
   using Matrix = Eigen::Matrix<double, G::kDof, G::kDof>;
   const Matrix sum = information1 + information2;
-  const auto d = z1.localCoordinates(z2);
+  const Matrix s = betweenErrorPerTangent<G>();
+  const auto d = (s * z1.localCoordinates(z2)).eval();  // in error coordinates
   const auto step = sum.llt().solve(information2 * d).eval();
   *information = sum;
-  return z1.retract(step);
+  return z1.retract(s.diagonal().cwiseInverse().asDiagonal() * step);
+}
+
+// Two measurements of one vector (a point observation's position): the information-weighted mean,
+// exact for an error linear in the measurement.
+template <int N>
+Eigen::Matrix<double, N, 1> mergedMeasurement(const Eigen::Matrix<double, N, 1>& z1,
+                                              const Eigen::Matrix<double, N, N>& information1,
+                                              const Eigen::Matrix<double, N, 1>& z2,
+                                              const Eigen::Matrix<double, N, N>& information2,
+                                              Eigen::Matrix<double, N, N>* information) noexcept {
+  const Eigen::Matrix<double, N, N> sum = information1 + information2;
+  *information = sum;
+  return sum.llt().solve(information1 * z1 + information2 * z2);
 }
 
 }  // namespace lslam

@@ -18,6 +18,8 @@ struct Slam2D {
   // The factor the solver anchors the first pose with (see smoother.h, the gauge).
   using PosePrior = PriorSE2Factor;
   // The odometry and loop-closure kind (CompactPoseGraph derives its measurements in it).
+  // The landmark observation CompactPoseGraph derives and folds.
+  using PointObservation = PointObservationSE2Factor;
   using PoseBetween = BetweenSE2Factor;
 };
 

@@ -18,6 +18,8 @@ struct Slam3D {
   // The factor the solver anchors the first pose with (see smoother.h, the gauge).
   using PosePrior = PriorSE3Factor;
   // The odometry and loop-closure kind (CompactPoseGraph derives its measurements in it).
+  // The landmark observation CompactPoseGraph derives and folds.
+  using PointObservation = PointObservationSE3Factor;
   using PoseBetween = BetweenSE3Factor;
 };
 

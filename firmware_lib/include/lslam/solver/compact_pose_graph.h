@@ -1,6 +1,7 @@
 #pragma once
-// Mapping for as long as the robot runs in the memory of one Smoother: a pose graph that stops
-// growing at the smoother's pose capacity and keeps learning from every later loop closure.
+// Mapping for as long as the robot runs in the memory of one Smoother: a graph that stops growing
+// at the smoother's pose capacity and keeps learning from every later loop closure and landmark
+// observation (firmware_lib/README.md, "Mapping past the capacity", says why and what it trades).
 //
 // The method (a reduced pose graph, after Johannsson et al., ICRA 2013, with Ila et al.'s "a
 // link only when informative" in its cheapest form, a merge):
@@ -12,15 +13,15 @@
 //    (its covariance grows, first order), and a loop closure from a place seen earlier (node b,
 //    offset T_b) to the current pose (node a, offset T_a) becomes a between factor b -> a of
 //    measurement T_b z T_a^-1, whose covariance is the three parts' propagated to first order.
-//    It then relocalizes: the current pose moves to node b with offset T_b z when that offset
-//    is the more certain (smaller covariance trace).
+//    The current pose is then fused with the closure's view of it, on the older of a and b
+//    (relocalize). A landmark observation becomes an observation from the current node (the
+//    position carried through the offset), and a mapped landmark corrects the current place
+//    (localizeOn).
 //  - A derived factor on a pair the graph already joins is folded into that factor
 //    (Smoother::addFolded): factors do not grow with time either. A new pair takes a factor while
-//    the smoother has one free; past that, and when the Cholesky factor's block pool is full, the
-//    loop closure is dropped (counted in the step's result) and only relocalizes.
-// What it trades: past capacity a pose is as good as its node and the odometry since the last
-// loop closure (no later measurement refines the offset); new places past capacity are not
-// mapped, only tracked; a folded factor is the information-weighted mean of its measurements.
+//    the smoother has one to spare (one is kept for folds) and the live Cholesky factor fills at
+//    most kNewPairPoolShare of the block pool; past that the measurement is dropped (counted in
+//    the step's result) and only localizes.
 //
 // Every step's inputs are checked before anything changes; a rejected step changes nothing. Node
 // ids are 0, 1, 2, ... in the order they were added (the smoother's pose ids).
@@ -51,12 +52,13 @@ struct PlaceClosure {
 // What a step did.
 struct CompactStepResult {
   Status status = Status::Ok;
-  bool node_added = false;   // the step's pose is a new node
-  bool relocalized = false;  // the current place moved to a loop closure's node
-  Index factors_added = 0;   // loop closures on a new pair
-  Index folded = 0;          // loop closures merged into a factor already there
-  Index dropped = 0;         // loop closures that found no room (factors or block pool)
-  Index updates = 0;         // smoother updates the step made
+  bool node_added = false;    // the step's pose is a new node
+  bool relocalized = false;   // the current place moved to a loop closure's node
+  Index factors_added = 0;    // loop closures and observations on a new pair
+  Index folded = 0;           // ... merged into a factor already there
+  Index dropped = 0;          // ... that found no room (factors, landmarks or block pool)
+  Index landmarks_added = 0;  // landmarks seen for the first time
+  Index updates = 0;          // smoother updates the step made
   std::int64_t block_products = 0;
   bool reordered = false;
 };
@@ -69,7 +71,19 @@ class CompactPoseGraph {
   using Matrix = Eigen::Matrix<double, Pose::kDof, Pose::kDof>;
   using PlaceT = Place<Pose>;
   using Closure = PlaceClosure<Pose>;
-  static_assert(Model::Variables::kSize == 1, "a pose-only model");
+  static constexpr bool kLandmarks = Model::Variables::kSize > 1;
+  // A pose-only model's "landmark" is its pose kind, never used.
+  using Landmark = TypeAtT<Model::Variables::kSize - 1, typename Model::Variables>;
+  static constexpr int kPointDim = kLandmarks ? Landmark::kDof : 1;
+  using PointVector = Eigen::Matrix<double, kPointDim, 1>;
+  using PointMatrix = Eigen::Matrix<double, kPointDim, kPointDim>;
+  // A landmark observation of a step: the landmark's id and its position measured in the current
+  // pose's frame (Model::PointObservation), with its information.
+  struct Observation {
+    VariableId landmark = -1;
+    PointVector position = PointVector::Zero();
+    PointMatrix information = PointMatrix::Identity();
+  };
   // New pairs stop once the live factor holds this share of the block pool (roomForNewPair): a
   // reordering stages a copy beside it, and the fill of later folds needs the rest.
   static constexpr double kNewPairPoolShare = 0.4;
@@ -78,13 +92,26 @@ class CompactPoseGraph {
 
   // The first pose, node 0 (the smoother must be empty).
   [[nodiscard]] Status start(const Pose& first, UpdateResult* result = nullptr);
-  // One step: the odometry from the current pose to the new one, then its loop closures.
-  // NonFiniteInput / InformationNotPositiveDefinite for a bad measurement, UnknownVariable for a
-  // place whose node is not in the graph, InvalidArgument for a covariance that is not finite and
-  // symmetric or a count < 0 (nothing changed).
+  // One step: the odometry from the current pose to the new one, then its loop closures, then
+  // its landmark observations (a model with landmarks; a landmark enters at its first
+  // observation, from the current place). NonFiniteInput / InformationNotPositiveDefinite for a
+  // bad measurement, UnknownVariable for a place whose node is not in the graph, InvalidArgument
+  // for a covariance that is not finite and symmetric, a negative count or landmark id, or
+  // observations in a pose-only model (nothing changed).
   [[nodiscard]] Status addStep(const Pose& odometry, const Matrix& information,
                                const Closure* closures, Index num_closures,
+                               const Observation* observations, Index num_observations,
                                CompactStepResult* result = nullptr);
+  [[nodiscard]] Status addStep(const Pose& odometry, const Matrix& information,
+                               const Closure* closures, Index num_closures,
+                               CompactStepResult* result = nullptr) {
+    return addStep(odometry, information, closures, num_closures, nullptr, 0, result);
+  }
+
+  // Landmark observations from the current pose outside a step (the first pose's): checked as
+  // addStep checks them, then added as a step adds them.
+  [[nodiscard]] Status addObservations(const Observation* observations, Index num_observations,
+                                       CompactStepResult* result = nullptr);
 
   // The current pose's place (the caller keeps it to name this pose in later loop closures).
   const PlaceT& current() const { return current_; }
@@ -95,11 +122,23 @@ class CompactPoseGraph {
 
  private:
   Status check(const Pose& odometry, const Matrix& information, const Closure* closures,
-               Index num_closures) const;
-  // The between factor b -> a or a -> b (kNoIndex if none); reversed when it is a -> b.
-  Index factorBetween(Index b, Index a, bool* reversed) const;
+               Index num_closures, const Observation* observations, Index num_observations) const;
+  // The factor of kind F from `first` to `second` (that order), or kNoIndex.
+  template <class F>
+  Index factorOf(Index first, Index second) const;
+  template <class F>
+  bool roomForFactor() const;
+  template <class F>
   bool roomForNewPair() const;
+  // The graph index of node `node` (its pose id).
+  Index nodeIndex(Index node) const;
   void closeLoop(const Closure& closure, CompactStepResult& r);
+  void observe(const Observation& observation, CompactStepResult& r);
+  void localizeOn(Index landmark, const Observation& observation);
+  // Adds `factor` on a new pair or folds it into `existing` (kNoIndex: none); counts the outcome
+  // and returns whether the smoother took it.
+  template <class F>
+  bool addOrFold(const ModelFactorInput<Model>& factor, Index existing, CompactStepResult& r);
   void relocalize(Index b, const Pose& seen, const Matrix& seen_covariance, CompactStepResult& r);
   Pose estimateAt(Index node) const;
   void record(const UpdateResult& u, CompactStepResult& r) const;

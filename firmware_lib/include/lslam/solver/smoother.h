@@ -154,8 +154,9 @@ class Smoother {
   // A repeated measurement of a pair that factor `into` already joins: update() adds it (a row
   // update of L, as any loop closure), then the graph stores it merged into `into`
   // (mergedMeasurement) instead of as a factor of its own, so that repeated loop closures between
-  // the same poses take no more factor memory. `into` must be a between factor of the caller's of
-  // the same kind on the same ids in the same order (else InvalidArgument, nothing changed).
+  // the same poses take no more factor memory. `into` must be a factor of the caller's of the same
+  // kind on the same ids in the same order, a between factor of two poses or the model's point
+  // observation (Model::PointObservation) (else InvalidArgument, nothing changed).
   // What it trades: L keeps both shares until the next full refactorization, while the graph's
   // merged factor differs from their sum at second order in the measurements' spread; a
   // relinearization subtracts the merged factor's share, so that difference stays in L until a
@@ -178,6 +179,11 @@ class Smoother {
     if (v == kNoIndex) return Status::UnknownVariable;
     *out = estimateAt<V>(v);
     return Status::Ok;
+  }
+  // The graph index of variable `id` of kind V, or kNoIndex.
+  template <class V>
+  Index indexOf(VariableId id) const {
+    return ids_[kVariableKind<Model, V>].find(id);
   }
   // The estimate of graph variable `variable` (of kind V).
   template <class V>
