@@ -18,11 +18,12 @@
 #include "lslam_target/instruction_counter.h"
 #include "target_checks.h"
 
+// The linker script's symbols, declared as startup.cpp declares them (LTO merges the two).
 extern "C" {
-extern char __data_start;
-extern char __bss_end;
-extern char __stack_limit;
-extern char __stack_top;
+void __stack_top();
+extern std::uint32_t __data_start[];
+extern std::uint32_t __bss_end[];
+extern std::uint32_t __stack_limit[];
 }
 
 namespace {
@@ -141,8 +142,10 @@ double maxNodeDifference() {
 
 int main() {
   lslam::target::Checks checks;
-  const double data_bss = static_cast<double>(&__bss_end - &__data_start);
-  const double stack = static_cast<double>(&__stack_top - &__stack_limit);
+  const auto address = [](const void* p) { return reinterpret_cast<std::uintptr_t>(p); };
+  const double data_bss = static_cast<double>(address(__bss_end) - address(__data_start));
+  const double stack =
+      static_cast<double>(reinterpret_cast<std::uintptr_t>(&__stack_top) - address(__stack_limit));
   Line()
       .text("solver object: ")
       .integer(static_cast<long long>(sizeof(Solver)))
