@@ -1252,6 +1252,7 @@ TEST_CASE("no heap allocation while a compact 3D map with landmarks runs past it
   Graph graph(*solver);
   Status worst = Status::Ok;
   Index folded = 0;
+  Index localized = 0;
   Index observed = 0;
   std::size_t failed_at = 0;
   const HeapCalls calls = countHeapCalls([&] {
@@ -1276,8 +1277,19 @@ TEST_CASE("no heap allocation while a compact 3D map with landmarks runs past it
         failed_at = k;
       }
       folded += r.folded;
+      localized += r.localized;
       observed += static_cast<Index>(c.observations.size());
       places[k] = graph.current();
+    }
+    // The 6 x 6 fold itself: loop closure 0 -> 10 measured again.
+    const auto& g = solver->graph();
+    for (Index f = 0; f < g.factors(); ++f) {
+      if (g.firstVariable(f) == solver->indexOf<SE3>(0) &&
+          g.secondVariable(f) == solver->indexOf<SE3>(10)) {
+        const auto again = lslam::ModelFactorInput<Slam3D>::make<BetweenSE3Factor>(
+            0, 10, g.measurement<BetweenSE3Factor>(f), Mat6::Identity());
+        if (solver->addFolded(again, f) == Status::Ok) ++folded;
+      }
     }
   });
   checkNoHeapCalls(calls, "compact 3D map with landmarks, 200 steps on 40 nodes");
@@ -1286,6 +1298,7 @@ TEST_CASE("no heap allocation while a compact 3D map with landmarks runs past it
   CHECK(graph.nodes() == 40);
   CHECK(solver->landmarks() == 50);
   CHECK(folded > 0);
+  CHECK(localized > 0);
   CHECK(observed == 199);  // one per step after the first
 }
 

@@ -249,8 +249,15 @@ void CompactPoseGraph<Model>::observe(const Observation& o, CompactStepResult& r
     const auto factor = ModelFactorInput<Model>::template make<Observed>(a, o.landmark, z, info);
     const Index l = smoother_.template indexOf<Landmark>(o.landmark);
     if (l != kNoIndex) {
-      static_cast<void>(addOrFold<Observed>(factor, factorOf<Observed>(nodeIndex(a), l), r));
-      localizeOn(l, o);
+      // From a node the observation maps; from a place past the capacity a mapped landmark only
+      // localizes: a factor derived from a place the map corrected would feed the map's own
+      // estimate back as a measurement.
+      if (current_.atNode()) {
+        static_cast<void>(addOrFold<Observed>(factor, factorOf<Observed>(nodeIndex(a), l), r));
+      } else {
+        localizeOn(l, o);
+        r.localized += 1;
+      }
       return;
     }
     const auto& graph = smoother_.graph();

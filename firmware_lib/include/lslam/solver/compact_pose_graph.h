@@ -14,9 +14,9 @@
 //    offset T_b) to the current pose (node a, offset T_a) becomes a between factor b -> a of
 //    measurement T_b z T_a^-1, whose covariance is the three parts' propagated to first order.
 //    The current pose is then fused with the closure's view of it, on the older of a and b
-//    (relocalize). A landmark observation becomes an observation from the current node (the
-//    position carried through the offset), and a mapped landmark corrects the current place
-//    (localizeOn).
+//    (relocalize). A landmark seen for the first time enters from the current place (its
+//    observation carried through the offset); a mapped landmark corrects the current place
+//    (localizeOn) and adds nothing to the map.
 //  - A derived factor on a pair the graph already joins is folded into that factor
 //    (Smoother::addFolded): factors do not grow with time either. A new pair takes a factor while
 //    the smoother has one to spare (one is kept for folds) and the live Cholesky factor fills at
@@ -58,6 +58,7 @@ struct CompactStepResult {
   Index folded = 0;           // ... merged into a factor already there
   Index dropped = 0;          // ... that found no room (factors, landmarks or block pool)
   Index landmarks_added = 0;  // landmarks seen for the first time
+  Index localized = 0;        // observations of mapped landmarks that corrected the place only
   Index updates = 0;          // smoother updates the step made
   std::int64_t block_products = 0;
   bool reordered = false;
