@@ -112,7 +112,7 @@ Status CompactPoseGraph<Model>::addStep(const Pose& odometry, const Matrix& info
   r.status = check(odometry, information, closures, num_closures, observations, num_observations);
   if (r.status != Status::Ok) return r.status;
 
-  // The new pose in the current node's frame.
+  // The next pose in the current node's frame.
   Matrix covariance;
   const Pose offset =
       composeWithCovariance<Pose>(current_.offset, current_.covariance, odometry,
@@ -334,8 +334,8 @@ bool CompactPoseGraph<Model>::roomForFactor() const {
          graph.freeFactorValues() >= kFactorValues<F> + kFactorValues<Between>;
 }
 
-// A factor for a new pair while roomForFactor and the Cholesky factor fills at most
-// kNewPairPoolShare of its block pool: past that, a reordering (which stages a whole new factor
+// A factor for a pair not yet joined while roomForFactor and the Cholesky factor fills at most
+// kNewPairPoolShare of its block pool: past that, a reordering (which stages a whole second factor
 // beside the live one) could no longer fit, and the attempt would fail only after its work.
 template <class Model>
 template <class F>

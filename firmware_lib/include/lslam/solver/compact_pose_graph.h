@@ -7,7 +7,8 @@
 // link only when informative" in its cheapest form, a merge):
 //  - Every pose of the trajectory is a Place: a node (a pose variable of the smoother) and the
 //    pose's offset from it, with the offset's covariance (zero for a node).
-//  - While the smoother has room, each step's pose is a new node joined to the current place by
+//  - While the smoother has room, each step's pose is a node of its own, joined to the current
+//  place by
 //    its odometry (composed with the current offset), and the graph is full smoothing.
 //  - At capacity the trajectory rides on the nodes: odometry composes onto the current offset
 //    (its covariance grows, first order), and a loop closure from a place seen earlier (node b,
@@ -18,10 +19,10 @@
 //    observation carried through the offset); a mapped landmark corrects the current place
 //    (localizeOn) and adds nothing to the map.
 //  - A derived factor on a pair the graph already joins is folded into that factor
-//    (Smoother::addFolded): factors do not grow with time either. A new pair takes a factor while
-//    the smoother has one to spare (one is kept for folds) and the live Cholesky factor fills at
-//    most kNewPairPoolShare of the block pool; past that the measurement is dropped (counted in
-//    the step's result) and only localizes.
+//    (Smoother::addFolded): factors do not grow with time either. A pair not yet joined takes a
+//    factor while the smoother has one to spare (one is kept for folds) and the live Cholesky
+//    factor fills at most kNewPairPoolShare of the block pool; past that the measurement is dropped
+//    (counted in the step's result) and only localizes.
 //
 // Every step's inputs are checked before anything changes; a rejected step changes nothing. Node
 // ids are 0, 1, 2, ... in the order they were added (the smoother's pose ids).
@@ -52,9 +53,9 @@ struct PlaceClosure {
 // What a step did.
 struct CompactStepResult {
   Status status = Status::Ok;
-  bool node_added = false;    // the step's pose is a new node
+  bool node_added = false;    // the step's pose became a node
   bool relocalized = false;   // the current place moved to a loop closure's node
-  Index factors_added = 0;    // loop closures and observations on a new pair
+  Index factors_added = 0;    // loop closures and observations on a pair not yet joined
   Index folded = 0;           // ... merged into a factor already there
   Index dropped = 0;          // ... that found no room (factors, landmarks or block pool)
   Index landmarks_added = 0;  // landmarks seen for the first time
@@ -93,7 +94,7 @@ class CompactPoseGraph {
 
   // The first pose, node 0 (the smoother must be empty).
   [[nodiscard]] Status start(const Pose& first, UpdateResult* result = nullptr);
-  // One step: the odometry from the current pose to the new one, then its loop closures, then
+  // One step: the odometry from the current pose to the next one, then its loop closures, then
   // its landmark observations (a model with landmarks; a landmark enters at its first
   // observation, from the current place). NonFiniteInput / InformationNotPositiveDefinite for a
   // bad measurement, UnknownVariable for a place whose node is not in the graph, InvalidArgument
@@ -136,8 +137,8 @@ class CompactPoseGraph {
   void closeLoop(const Closure& closure, CompactStepResult& r);
   void observe(const Observation& observation, CompactStepResult& r);
   void localizeOn(Index landmark, const Observation& observation);
-  // Adds `factor` on a new pair or folds it into `existing` (kNoIndex: none); counts the outcome
-  // and returns whether the smoother took it.
+  // Adds `factor` on a pair not yet joined, or folds it into `existing` (kNoIndex: none); counts
+  // the outcome and returns whether the smoother took it.
   template <class F>
   bool addOrFold(const ModelFactorInput<Model>& factor, Index existing, CompactStepResult& r);
   void relocalize(Index b, const Pose& seen, const Matrix& seen_covariance, CompactStepResult& r);
