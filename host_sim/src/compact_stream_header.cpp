@@ -1,7 +1,5 @@
 #include "host_sim/compact_stream_header.h"
 
-#include <array>
-#include <charconv>
 #include <memory>
 #include <stdexcept>
 #include <vector>
@@ -137,15 +135,7 @@ HostRun runStream(const CompactStream& stream, const SmootherCapacities& capacit
 // The position RMS against the truth of the batch optimum of the first max_poses steps.
 double firstBatchMapRms(const ModelDataset& d, const std::vector<ModelStep>& steps,
                         const ModelEstimate& truth, int max_poses) {
-  ModelDataset first;
-  first.dimension = 2;
-  first.name = d.name;
-  for (std::size_t s = 0; s < static_cast<std::size_t>(max_poses); ++s) {
-    for (const std::size_t k : steps[s].factors) first.factors.push_back(d.factors[k]);
-  }
-  for (const ModelVertex& v : d.vertices) {
-    if (v.key.id < max_poses) first.vertices.push_back(v);
-  }
+  const ModelDataset first = firstSteps(d, steps, static_cast<std::size_t>(max_poses));
   BatchOptions options;
   options.fixed = {0};
   const ModelBatchResult batch = solveModelBatch(first, initialEstimate(first), options);
@@ -166,18 +156,9 @@ std::string triple(const SE2& z) {
   return "{" + number(z.x()) + ", " + number(z.y()) + ", " + number(z.theta()) + "}";
 }
 
-// A float's shortest round-trip text, as a float literal.
-std::string floatLiteral(double v) {
-  std::array<char, 32> buf{};
-  const auto res = std::to_chars(buf.data(), buf.data() + buf.size(), static_cast<float>(v));
-  std::string s(buf.data(), res.ptr);
-  if (s.find_first_of(".en") == std::string::npos) s += ".0";
-  return s + "f";
-}
-
 std::string floatTriple(const SE2& z) {
-  return "{" + floatLiteral(z.x()) + ", " + floatLiteral(z.y()) + ", " + floatLiteral(z.theta()) +
-         "}";
+  return "{" + detail::floatLiteral(z.x()) + ", " + detail::floatLiteral(z.y()) + ", " +
+         detail::floatLiteral(z.theta()) + "}";
 }
 
 }  // namespace

@@ -12,14 +12,25 @@
 
 namespace lslam::sim::detail {
 
-// The shortest text that reads back as the same double, always a double literal.
-inline std::string doubleLiteral(double v) {
+// The shortest text that reads back as the same value (double or float), with a decimal point.
+template <class T>
+std::string shortestLiteral(T v) {
   std::array<char, 32> buf{};
   const auto res = std::to_chars(buf.data(), buf.data() + buf.size(), v);  // shortest round trip
   std::string s(buf.data(), res.ptr);
-  // A bare integer such as "400" is still a double literal once it has a decimal point.
+  // A bare integer such as "400" is still a floating literal once it has a decimal point.
   if (s.find_first_of(".en") == std::string::npos) s += ".0";
   return s;
+}
+
+// The shortest text that reads back as the same double, always a double literal.
+inline std::string doubleLiteral(double v) {
+  return shortestLiteral(v);
+}
+
+// v rounded to float, as a float literal that reads back as that float.
+inline std::string floatLiteral(double v) {
+  return shortestLiteral(static_cast<float>(v)) + "f";
 }
 
 // v as text, for an id in 0..2^31-1; std::invalid_argument "<what> <v> out of range" otherwise.

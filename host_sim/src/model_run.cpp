@@ -411,10 +411,8 @@ class CompactRunner {
           const bool forward = f.second.id == step.new_pose.id;
           const std::int64_t other = forward ? f.first.id : f.second.id;
           if (!forward) {
-            Matrix j;
-            z = z.inverse(&j);
-            const Matrix j_inv = j.inverse();
-            info = j_inv.transpose() * info * j_inv;
+            info = reversedBetweenInformation(z, info);
+            z = z.inverse();
           }
           if (other == previous && !have_odometry) {
             odometry = z;
@@ -481,8 +479,9 @@ class CompactRunner {
  private:
   // Takes the model's point observation of the step's pose into `observations` (true), or leaves
   // any other factor (false).
-  bool observation(const ModelFactorInput<Model>& in, const ModelFactor& f, const ModelStep& step,
-                   std::vector<Observation>& observations) const {
+  bool observation([[maybe_unused]] const ModelFactorInput<Model>& in,
+                   [[maybe_unused]] const ModelFactor& f, [[maybe_unused]] const ModelStep& step,
+                   [[maybe_unused]] std::vector<Observation>& observations) const {
     if constexpr (Graph::kLandmarks) {
       using Observed = typename Model::PointObservation;
       if (in.kind != kFactorKind<Model, Observed>) return false;
@@ -492,20 +491,16 @@ class CompactRunner {
       observations.push_back(Observation{f.second.id, in.template measurementAs<Observed>(),
                                          in.template informationAs<Observed>()});
       return true;
-    } else {
-      static_cast<void>(in);
-      static_cast<void>(f);
-      static_cast<void>(step);
-      static_cast<void>(observations);
-      return false;
     }
+    return false;
   }
 
   // The initial value of each landmark the step introduces: its first sighting from the step's
   // place.
-  void introduceLandmarks(const Graph& graph, const ModelStep& step,
-                          const std::vector<Observation>& observations,
-                          ModelEstimate& initial) const {
+  void introduceLandmarks([[maybe_unused]] const Graph& graph,
+                          [[maybe_unused]] const ModelStep& step,
+                          [[maybe_unused]] const std::vector<Observation>& observations,
+                          [[maybe_unused]] ModelEstimate& initial) const {
     if constexpr (Graph::kLandmarks) {
       using Observed = typename Model::PointObservation;
       for (const VariableKey& key : step.new_landmarks) {
@@ -516,11 +511,6 @@ class CompactRunner {
           break;
         }
       }
-    } else {
-      static_cast<void>(graph);
-      static_cast<void>(step);
-      static_cast<void>(observations);
-      static_cast<void>(initial);
     }
   }
 
@@ -755,12 +745,8 @@ SmootherCapacities compactCapacities(const ModelDataset& d, Index max_poses, Ind
   if (factor_blocks > 0) {
     c.factor_blocks = factor_blocks;
   } else {
-    ModelDataset first;
-    first.dimension = d.dimension;
-    for (std::size_t s = 0; s < static_cast<std::size_t>(c.poses); ++s) {
-      for (const std::size_t k : steps[s].factors) first.factors.push_back(d.factors[k]);
-    }
-    c.factor_blocks = blockPool(batchFactorBlocks(first), c.poses);
+    c.factor_blocks = blockPool(
+        batchFactorBlocks(firstSteps(d, steps, static_cast<std::size_t>(c.poses))), c.poses);
   }
   // Mixed block sizes: every block at the largest size.
   const Index largest_block = planar ? 9 : 36;

@@ -332,4 +332,22 @@ Eigen::VectorXd initialValue(const ModelDataset& d, const ModelStep& step, const
                               " has neither an observation nor a prior in the step");
 }
 
+ModelDataset firstSteps(const ModelDataset& d, const std::vector<ModelStep>& steps, std::size_t n) {
+  ModelDataset first;
+  first.name = d.name;
+  first.format = d.format;
+  first.convention = d.convention;
+  first.dimension = d.dimension;
+  std::unordered_set<VariableKey, VariableKeyHash> keys;
+  for (std::size_t s = 0; s < n && s < steps.size(); ++s) {
+    if (steps[s].new_pose.id >= 0) keys.insert(steps[s].new_pose);
+    keys.insert(steps[s].new_landmarks.begin(), steps[s].new_landmarks.end());
+    for (const std::size_t k : steps[s].factors) first.factors.push_back(d.factors[k]);
+  }
+  for (const ModelVertex& v : d.vertices) {
+    if (keys.count(v.key) != 0) first.vertices.push_back(v);
+  }
+  return first;
+}
+
 }  // namespace lslam::sim

@@ -7,12 +7,14 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <random>
 #include <vector>
 
 #include "host_sim/batch_solver.h"
 #include "host_sim/steps.h"
 #include "host_sim/synthetic.h"
 #include "lslam/factors/merged_measurement.h"
+#include "lslam/factors/se3_factors.h"
 #include "lslam/models/pose_slam_2d.h"
 #include "lslam/solver/compact_pose_graph.h"
 #include "lslam/solver/smoother.h"
@@ -402,4 +404,29 @@ TEST_CASE("a compact graph refuses steps before start() and observations of a po
   CHECK(solver->variables() == 1);
   CHECK(graph.addStep(SE2(1.0, 0.0, 0.0), info, nullptr, 0, &r) == Status::Ok);
   CHECK(solver->variables() == 2);
+}
+
+TEST_CASE("reversedBetweenInformation: the same chi2 read from the other pose") {
+  // For poses a little off a measurement z of xi -> xj, the between factor's chi2 e^T O e must
+  // equal, to first order in the error, that of z^-1 from xj -> xi under the reversed information
+  // (the factors' own error functions, in their own error coordinates).
+  std::mt19937 rng(7);
+  std::normal_distribution<double> n(0.0, 1.0);
+  for (int trial = 0; trial < 50; ++trial) {
+    const SE3 z = SE3::exp(Vec6(n(rng), n(rng), n(rng), n(rng), n(rng), n(rng)));
+    Mat6 a;
+    for (int i = 0; i < 36; ++i) a(i / 6, i % 6) = n(rng);
+    const Mat6 information = a * a.transpose() + Mat6::Identity();
+    const Mat6 reversed = reversedBetweenInformation(z, information);
+    const SE3 xi = SE3::exp(Vec6(n(rng), n(rng), n(rng), n(rng), n(rng), n(rng)));
+    const Vec6 off = 1e-4 * Vec6(n(rng), n(rng), n(rng), n(rng), n(rng), n(rng));
+    const SE3 xj = xi.compose(z).retract(off);
+    const Vec6 forward = BetweenSE3Factor::error(xi, xj, z, nullptr, nullptr);
+    const Vec6 backward = BetweenSE3Factor::error(xj, xi, z.inverse(), nullptr, nullptr);
+    const double chi2 = forward.dot(information * forward);
+    CHECK(backward.dot(reversed * backward) == doctest::Approx(chi2).epsilon(1e-3));
+    // And back again.
+    const Mat6 twice = reversedBetweenInformation(z.inverse(), reversed);
+    CHECK((twice - information).norm() <= 1e-8 * information.norm());
+  }
 }

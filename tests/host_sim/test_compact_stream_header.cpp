@@ -4,6 +4,8 @@
 // target is checked against the current host; and the generator refuses what it cannot stream.
 #include <doctest/doctest.h>
 
+#include "read_file.h"
+
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -19,13 +21,7 @@ using namespace lslam::sim;
 
 namespace {
 
-std::string readFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  REQUIRE_MESSAGE(in.good(), "cannot read " << path);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
+using lslam::test::readFile;
 
 // The world as `simulate` writes it, read back as `lslam-stream-header` reads it.
 struct WrittenWorld {

@@ -4,6 +4,8 @@
 // (host_sim/synthetic_3d.h) writes.
 #include <doctest/doctest.h>
 
+#include "read_file.h"
+
 #include <cstdint>
 #include <fstream>
 #include <map>
@@ -23,13 +25,7 @@ namespace {
 
 const std::string kDataDir = LSLAM_DATA_DIR;
 
-std::string readFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  REQUIRE_MESSAGE(in.good(), "cannot read " << path);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
+using lslam::test::readFile;
 
 // 1-based number of the first line where a and b differ (0 if they are equal).
 int firstDifferingLine(const std::string& a, const std::string& b) {

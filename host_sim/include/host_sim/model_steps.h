@@ -75,6 +75,10 @@ struct ModelStep {
 
 std::vector<ModelStep> buildModelSteps(const ModelDataset& d, StepOrder order = StepOrder::Online);
 
+// The dataset of the first n of `steps` (buildModelSteps of d): their factors, and the vertices of
+// their poses and landmarks.
+ModelDataset firstSteps(const ModelDataset& d, const std::vector<ModelStep>& steps, std::size_t n);
+
 // The initial value of `key`, a variable `step` introduces (its new pose or one of its
 // new_landmarks), in its kind's parameters, from `current` (see INITIAL VALUES above). Throws
 // std::invalid_argument if `key` is not introduced by `step`, or a value it needs is missing from

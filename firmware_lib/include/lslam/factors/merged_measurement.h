@@ -32,6 +32,22 @@ G mergedMeasurement(const G& z1, const Eigen::Matrix<double, G::kDof, G::kDof>& 
   return z1.retract(s.diagonal().cwiseInverse().asDiagonal() * step);
 }
 
+// The information of z^-1, for a between measurement z of information `information` (both in the
+// between factors' error coordinates): the same measurement read from the other pose.
+template <class G>
+Eigen::Matrix<double, G::kDof, G::kDof> reversedBetweenInformation(
+    const G& z, const Eigen::Matrix<double, G::kDof, G::kDof>& information) noexcept {
+  using Matrix = Eigen::Matrix<double, G::kDof, G::kDof>;
+  Matrix j;  // d z^-1 / d z in the tangent
+  static_cast<void>(z.inverse(&j));
+  // In error coordinates e = S tau the Jacobian is S j S^-1, and information goes by its inverse.
+  const Matrix s = betweenErrorPerTangent<G>();
+  Matrix s_inverse = s;
+  s_inverse.diagonal() = s_inverse.diagonal().cwiseInverse();
+  const Matrix back = s * j.inverse() * s_inverse;  // d z / d z^-1: the inverse of j
+  return back.transpose() * information * back;
+}
+
 // Two measurements of one vector (a point observation's position): the information-weighted mean,
 // exact for an error linear in the measurement.
 template <int N>
