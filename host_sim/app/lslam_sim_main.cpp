@@ -48,6 +48,7 @@ constexpr const char* kUsage =
     "                 [--reorder-relinearized SHARE] [--reorder-refresh G]\n"
     "                 [--relinearize-full-cost RATIO] [--order-in-one-update]\n"
     "                 [--prepare-min-products N]\n"
+    "                 [--relinearize-defer PRODUCTS] [--relinearize-defer-updates N]\n"
     "                 [--reorder-top] [--no-row-updates]\n"
     "                 [--factor-blocks N] [--max-poses N] [--no-batch]\n"
     "       lslam-sim simulate WORLD OUT.g2o [--steps N] [--seed S] [parameters]\n"

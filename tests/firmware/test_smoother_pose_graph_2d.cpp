@@ -147,6 +147,7 @@ struct UpdatePaths {
   bool reorder_affected_top = false;
   bool row_updates = true;
   bool batched_relinearization = true;
+  bool deferred_relinearization = false;  // every due relinearization waits (up to 8 updates)
 };
 
 void checkTracksBatch(const UpdatePaths& paths) {
@@ -163,11 +164,22 @@ void checkTracksBatch(const UpdatePaths& paths) {
     options.reorder_top_min_columns = 4;
     options.row_updates = paths.row_updates;
     options.relinearize_urgent_threshold = paths.batched_relinearization ? 1e-2 : 1e-3;
+    if (paths.deferred_relinearization) {
+      options.relinearize_defer_products = 1;
+      options.relinearize_defer_updates = 8;
+    }
     auto solver = std::make_unique<SmallSolver>(options);
     Estimate2D initial;
+    bool check_due = false;
+    std::size_t checks = 0;
     for (std::size_t s = 0; s < steps.size(); ++s) {
-      REQUIRE(feedStep(*solver, d, steps[s], initial) == Status::Ok);
-      if (s % 40 != 39 && s + 1 != steps.size()) continue;
+      lslam::UpdateResult r;
+      REQUIRE(feedStep(*solver, d, steps[s], initial, &r) == Status::Ok);
+      check_due = check_due || s % 40 == 39 || s + 1 == steps.size();
+      // A relinearization that waits leaves the estimate at a stale point until the wait ends.
+      if (!check_due || r.relinearization_deferred) continue;
+      check_due = false;
+      ++checks;
       const Dataset2D seen = prefix(d, steps, s);
       if (seen.edges.empty()) continue;
       const BatchResult batch = solveBatch2D(seen, initial);
@@ -178,6 +190,8 @@ void checkTracksBatch(const UpdatePaths& paths) {
       CHECK(chi2_inc >= batch.chi2 * (1.0 - 1e-9) - 1e-9);  // the batch optimum is a minimum
       CHECK(maxPositionDiff(inc, batch.poses) < 0.02);
     }
+    // Every check point was checked, but the last if a wait was still on at the end.
+    CHECK(checks + 1 >= (steps.size() + 39) / 40);
   }
 }
 
@@ -193,6 +207,10 @@ TEST_CASE("with the recomputing update only and relinearization at every update,
 
 TEST_CASE("with reordered updates of the affected top, too") {
   checkTracksBatch(UpdatePaths{true, true, true});
+}
+
+TEST_CASE("with every due relinearization waiting for the next reordering, too") {
+  checkTracksBatch(UpdatePaths{false, true, true, true});
 }
 
 // Feeds syntheticWorld(poses, seed) online to a solver with `options` and calls
@@ -391,6 +409,18 @@ TEST_CASE("the rent-or-buy rule reorders exactly when the growth work passes its
   }
 }
 
+namespace {
+
+// Reordering from 20 variables, and a relinearization due at nearly every update.
+SolverOptions urgentAtEveryUpdate() {
+  SolverOptions options = policyOptions();
+  options.reorder_min_variables = 20;
+  options.relinearize_urgent_threshold = 0.0;
+  return options;
+}
+
+}  // namespace
+
 TEST_CASE(
     "a relinearization dearer in place than a full refactorization refactorizes fully, in a "
     "fresh ordering") {
@@ -403,10 +433,8 @@ TEST_CASE(
     int postponed = 0;
     for (std::uint32_t seed = 60; seed < 63; ++seed) {
       CAPTURE(seed);
-      SolverOptions options = policyOptions();
-      options.reorder_min_variables = 20;
+      SolverOptions options = urgentAtEveryUpdate();
       options.reorder_relinearized_share = 2.0;
-      options.relinearize_urgent_threshold = 0.0;
       options.relinearize_full_cost_ratio = ratio;
       runOnline(200, seed, options,
                 [&](const lslam::UpdateResult& r, bool prepared, const Solver&) {
@@ -422,6 +450,50 @@ TEST_CASE(
     } else {
       CHECK(in_place > 0);
     }
+  }
+}
+
+TEST_CASE(
+    "a relinearization dearer than relinearize_defer_products waits for the next reordering, at "
+    "most relinearize_defer_updates updates, relinearizing nothing meanwhile") {
+  // Bar 1: every relinearization past the first full refactorization is dear; urgent at every
+  // update makes one due at nearly every update. A wait ends at a reordering, or at the cap.
+  for (const Index cap : {3, 1000}) {
+    CAPTURE(cap);
+    int deferred = 0;
+    int ended_by_reordering = 0;
+    int ended_at_cap = 0;
+    for (std::uint32_t seed = 70; seed < 73; ++seed) {
+      CAPTURE(seed);
+      SolverOptions options = urgentAtEveryUpdate();
+      options.relinearize_defer_products = 1;
+      options.relinearize_defer_updates = cap;
+      Index waited = 0;
+      runOnline(200, seed, options,
+                [&](const lslam::UpdateResult& r, bool prepared, const Solver&) {
+                  CHECK(r.reordered == prepared);
+                  if (r.relinearization_deferred) {
+                    CHECK(r.variables_relinearized == 0);
+                    CHECK_FALSE(r.reordered);
+                    CHECK_FALSE(r.refactored_fully);
+                    ++waited;
+                    ++deferred;
+                    CHECK(waited <= cap);
+                  } else if (waited > 0) {
+                    if (r.reordered) {
+                      ++ended_by_reordering;
+                    } else if (waited == cap) {
+                      ++ended_at_cap;
+                    }
+                    // (A dear relinearization in a stale order only prepares one: still waiting.)
+                    if (r.reordered || r.variables_relinearized > 0) waited = 0;
+                  }
+                });
+    }
+    CHECK(deferred > 0);
+    CHECK(ended_by_reordering > 0);
+    if (cap == 3) CHECK(ended_at_cap > 0);
+    if (cap == 1000) CHECK(ended_at_cap == 0);
   }
 }
 
@@ -870,8 +942,11 @@ TEST_CASE(
   int failures_prepared = 0;
   int failures_burst_prepared = 0;  // a burst with an ordering prepared
   int failures_layout_pending = 0;
-  for (const bool row_updates : {true, false}) {
-    CAPTURE(row_updates);
+  int failures_waiting = 0;  // while a dear relinearization waits (relinearize_defer_products)
+  // Row updates on, off, and on with every relinearization waiting for a reordering.
+  for (const int paths : {0, 1, 2}) {
+    const bool row_updates = paths != 1;
+    CAPTURE(paths);
     for (std::uint32_t seed = 110; seed < 118; ++seed) {
       CAPTURE(seed);
       const Dataset2D d = syntheticWorld(160, seed);
@@ -880,11 +955,17 @@ TEST_CASE(
       options.reorder_min_variables = 20;
       options.row_updates = row_updates;
       options.reorder_burst_loop_closures = kBurst;
+      if (paths == 2) {
+        options.relinearize_urgent_threshold = 0.0;
+        options.relinearize_defer_products = 1;
+        options.relinearize_defer_updates = 3;
+      }
       auto solver = std::make_unique<SmallSolver>(options);
       auto reference = std::make_unique<SmallSolver>(options);
       std::mt19937 rng(seed);
       int loop_closures = 0;  // steps with loop closures fed so far
       bool prepared = false;
+      bool waiting = false;
       for (std::size_t s = 0; s < steps.size(); ++s) {
         CAPTURE(s);
         const StepInput next = stepInput(*solver, d, steps[s]);
@@ -905,6 +986,7 @@ TEST_CASE(
           failures_prepared += prepared ? 1 : 0;
           failures_burst_prepared += prepared && bad.burst ? 1 : 0;
           failures_layout_pending += layout_pending ? 1 : 0;
+          failures_waiting += waiting ? 1 : 0;
         }
         // The same valid step to both; every decision the solver reports must match the
         // reference's (what the pool's layout decides, compaction and the layout, may not).
@@ -923,9 +1005,11 @@ TEST_CASE(
         CHECK(r.block_products == r_reference.block_products);
         CHECK(r.variables_solved == r_reference.variables_solved);
         CHECK(r.factor_blocks == r_reference.factor_blocks);
+        CHECK(r.relinearization_deferred == r_reference.relinearization_deferred);
         if (s % 20 == 19) CHECK(snapshot(*solver) == snapshot(*reference));
         loop_closures += steps[s].edges.size() > 1 ? 1 : 0;
         prepared = r.ordering_prepared;
+        waiting = r.relinearization_deferred;
       }
       CHECK(snapshot(*solver) == snapshot(*reference));
       CHECK(maxPositionDiff(estimateOf(*solver), estimateOf(*reference)) == 0.0);
@@ -934,11 +1018,13 @@ TEST_CASE(
   MESSAGE(failures << " failed updates, " << failures_row_updates_on
                    << " with an overflowing loop closure and row updates on, " << failures_prepared
                    << " with an ordering prepared (" << failures_burst_prepared
-                   << " of them bursts), " << failures_layout_pending << " with a layout pending");
+                   << " of them bursts), " << failures_layout_pending << " with a layout pending, "
+                   << failures_waiting << " while a relinearization waited");
   CHECK(failures_row_updates_on > 0);
   CHECK(failures_prepared > 0);
   CHECK(failures_burst_prepared > 0);
   CHECK(failures_layout_pending > 0);
+  CHECK(failures_waiting > 0);
 }
 
 TEST_CASE("a pool small enough to need compactions gives the estimate of one that needs none") {

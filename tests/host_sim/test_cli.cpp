@@ -53,12 +53,27 @@ TEST_CASE("run: DATASET exactly once, and not empty") {
 }
 
 TEST_CASE("run: an option without its value, at the end of the line or before another option") {
-  for (const char* option :
-       {"--order", "--solve-every", "--csv", "--out", "--report", "--prepare-min-products",
-        "--relinearize-threshold", "--relinearize-urgent", "--relinearize-partial",
-        "--backsub-tolerance", "--reorder-growth", "--reorder-excess", "--reorder-relinearized",
-        "--reorder-refresh", "--relinearize-full-cost", "--relinearize-skip", "--reorder-path",
-        "--reorder-burst", "--factor-blocks"}) {
+  for (const char* option : {"--order",
+                             "--solve-every",
+                             "--csv",
+                             "--out",
+                             "--report",
+                             "--prepare-min-products",
+                             "--relinearize-threshold",
+                             "--relinearize-urgent",
+                             "--relinearize-partial",
+                             "--backsub-tolerance",
+                             "--reorder-growth",
+                             "--reorder-excess",
+                             "--reorder-relinearized",
+                             "--reorder-refresh",
+                             "--relinearize-full-cost",
+                             "--relinearize-skip",
+                             "--reorder-path",
+                             "--reorder-burst",
+                             "--factor-blocks",
+                             "--relinearize-defer",
+                             "--relinearize-defer-updates"}) {
     CAPTURE(option);
     CHECK(runError({"data.g2o", option}) == std::string(option) + " needs a value");
     CHECK(runError({option, "--json", "data.g2o"}) ==
@@ -114,6 +129,7 @@ TEST_CASE("run: a valid line sets every option, DATASET anywhere among them") {
                      "--reorder-relinearized", "0.25", "--reorder-refresh", "4",
                      "--relinearize-full-cost", "5", "--relinearize-skip", "6",
                      "--reorder-path", "7", "--reorder-burst", "8", "--prepare-min-products", "9",
+                     "--relinearize-defer", "10", "--relinearize-defer-updates", "11",
                      "--reorder-top", "--no-row-updates", "--order-in-one-update"};
   // clang-format on
   REQUIRE(parseRunArgs(argv, args) == std::nullopt);
@@ -138,6 +154,8 @@ TEST_CASE("run: a valid line sets every option, DATASET anywhere among them") {
   CHECK(so.reorder_path_columns == 7);
   CHECK(so.reorder_burst_loop_closures == 8);
   CHECK(so.prepare_ordering_min_products == 9);
+  CHECK(so.relinearize_defer_products == 10);
+  CHECK(so.relinearize_defer_updates == 11);
   CHECK(so.reorder_affected_top);
   CHECK_FALSE(so.row_updates);
   CHECK_FALSE(so.prepare_ordering_ahead);

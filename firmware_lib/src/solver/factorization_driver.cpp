@@ -100,7 +100,7 @@ Status FactorizationDriver<Graph, Factor>::refactor(Ordering& ordering, const Up
   ordering.activate(buffer);
   *positions_moved = reorder || top_reordered;
   const FactorizationStats& stats = factor_.lastStats();
-  ordering.noteFactorization(reorder, full, stats);
+  ordering.noteFactorization(reorder, full, stats, plan.deferred_products);
   if (full) {
     last_full_.products = stats.block_products;
     last_full_.blocks = factor_.liveBlocks();
@@ -109,6 +109,7 @@ Status FactorizationDriver<Graph, Factor>::refactor(Ordering& ordering, const Up
   r.reordered = reorder;
   r.refactored_fully = full;
   r.top_reordered = top_reordered;
+  r.relinearization_deferred = plan.relinearization_deferred;
   r.variables_relinearized = relinearized.count;
   r.columns_refactored = stats.columns_recomputed;
   r.block_products = stats.block_products;

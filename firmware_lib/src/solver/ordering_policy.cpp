@@ -47,7 +47,8 @@ bool OrderingPolicy<Graph, Factor>::wantsReorder() const {
 // not drift.
 template <class Graph, class Factor>
 void OrderingPolicy<Graph, Factor>::noteFactorization(bool reordered, bool full,
-                                                      const FactorizationStats& stats) {
+                                                      const FactorizationStats& stats,
+                                                      std::int64_t deferred_products) {
   last_columns_refactored_ = full ? 0 : stats.columns_recomputed;
   const std::int64_t block_products = stats.block_products;
   if (reordered) {
@@ -61,6 +62,7 @@ void OrderingPolicy<Graph, Factor>::noteFactorization(bool reordered, bool full,
   }
   const Index growth = factor_.liveBlocks() - blocks_at_last_order_;
   if (blocks_at_last_order_ > 0 && growth > 0) excess_work_ += block_products * growth;
+  excess_work_ += deferred_products * blocks_at_last_order_;
 }
 
 template <class Graph, class Factor>

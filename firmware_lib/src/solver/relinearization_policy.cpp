@@ -161,14 +161,18 @@ void RelinearizationPolicy<Graph, Factor>::clearCandidates() {
   for (Index i = 0; i < candidate_count_; ++i) a_.is_candidate[a_.candidates[i]] = 0;
   candidate_count_ = 0;
   urgent_ = false;
+  updates_deferred_ = 0;
 }
 
 template <class Graph, class Factor>
-void RelinearizationPolicy<Graph, Factor>::noteUpdate(bool relinearized, const Vector* delta) {
+void RelinearizationPolicy<Graph, Factor>::noteUpdate(bool relinearized, bool deferred,
+                                                      const Vector* delta) {
   if (relinearized) {
     keepWaitingCandidates(delta);
     updates_since_relinearization_ = 0;
+    updates_deferred_ = 0;
   } else {
+    if (deferred) ++updates_deferred_;
     ++updates_since_relinearization_;
   }
 }

@@ -162,7 +162,7 @@ Status Smoother<Model>::update(const Variable* variables, Index num_variables,
   }
   // The anchor is the last factor of its update (added after the caller's).
   gauge_.commit(anchored != kNoIndex, drop_anchor, graph_.factors() - 1);
-  relinearization_.noteUpdate(plan.relinearize_now, delta_);
+  relinearization_.noteUpdate(plan.relinearize_now, plan.relinearization_deferred, delta_);
   for (Index i = 0; i < num_variables; ++i) {
     id_of_[graph_.variables() - num_variables + i] = variables[i].id;
   }
@@ -260,7 +260,7 @@ void Smoother<Model>::solve(bool full, UpdateResult* result) {
   for (Index i = 0; i < iterations && relinearization_.urgent(); ++i) {
     UpdateResult step;
     // A failed pass changed nothing: the solution stands, the candidates wait.
-    if (relinearizeCandidates(step) != Status::Ok) break;
+    if (relinearizeCandidates(step) != Status::Ok || step.relinearization_deferred) break;
     backSubstitute(full, result);
     if (result == nullptr) continue;
     result->iterations = i + 1;
@@ -287,7 +287,7 @@ Status Smoother<Model>::relinearizeCandidates(UpdateResult& result) {
   const UpdatePlan plan = planUpdate(0, false);
   const Status s = refactor(0, plan, true, result);
   if (s != Status::Ok) return s;
-  relinearization_.noteUpdate(plan.relinearize_now, delta_);
+  relinearization_.noteUpdate(plan.relinearize_now, plan.relinearization_deferred, delta_);
   if (plan.prepare_ordering) result.ordering_prepared = ordering_.prepareOrdering();
   return Status::Ok;
 }

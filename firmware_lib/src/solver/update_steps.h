@@ -13,7 +13,8 @@ namespace detail {
 // prepared ordering is applied now; a stale one is replaced now, or prepared at the end of this
 // update and applied by the next (prepare_ordering_ahead). The candidates are relinearized when
 // one is urgent, at a reordering, or every relinearize_skip updates; in place, or by a full
-// refactorization when that is cheaper (relinearizationDear). An update that drops the anchor
+// refactorization when that is cheaper (relinearizationDear); one too dear in place waits for the
+// next reordering (defersRelinearization). An update that drops the anchor
 // reorders now, a full refactorization: a factor cannot be taken out of L in place.
 template <class Graph, class Ordering, class Relinearization, class Driver, class Vector>
 UpdatePlan planUpdate(Graph& graph, Ordering& ordering, Relinearization& relinearization,
@@ -37,12 +38,28 @@ UpdatePlan planUpdate(Graph& graph, Ordering& ordering, Relinearization& relinea
                                                                   : CandidateRange::PastPartial,
                                                  delta, 0)
                                            : 0;
+  std::int64_t in_place = -1;  // estimated once, when a rule asks
+  const auto in_place_products = [&] {
+    if (in_place < 0) {
+      in_place = driver.inPlaceProducts(
+          new_variables, position_of, StagedVariables{relinearization.staged(), plan.relinearized});
+    }
+    return in_place;
+  };
+  if (!plan.reorder_now && !drop_anchor &&
+      relinearization.defersRelinearization(plan.relinearized, driver.lastFull(),
+                                            in_place_products)) {
+    // Too dear either way (relinearize_defer_products): the candidates wait for the reordering
+    // that the charge of their first wait brings closer.
+    graph.unstageRelinearization();
+    plan.relinearization_deferred = true;
+    plan.deferred_products = relinearization.deferralCharged() ? 0 : in_place;
+    plan.relinearized = 0;
+    plan.relinearize_now = false;
+  }
   plan.refactor_fully =
       !plan.reorder_now &&
-      relinearization.relinearizationDear(plan.relinearized, driver.lastFull(), [&] {
-        return driver.inPlaceProducts(new_variables, position_of,
-                                      StagedVariables{relinearization.staged(), plan.relinearized});
-      });
+      relinearization.relinearizationDear(plan.relinearized, driver.lastFull(), in_place_products);
   if (plan.refactor_fully && !ordering.orderingFresh() &&
       ordering.preparesOrderingAhead(driver.lastFull().products)) {
     // A full refactorization in a stale ordering is nearly the price of a reordering: this update

@@ -61,8 +61,10 @@ class OrderingPolicy {
   }
   // The factor has grown little since the last ordering (reorder_refresh_growth).
   bool orderingFresh() const;
-  // After a committed factorization (see the work budget in the source).
-  void noteFactorization(bool reordered, bool full, const FactorizationStats& stats);
+  // After a committed factorization (see the work budget in the source); deferred_products: the
+  // in-place estimate of a relinearization that waits for the next reordering, charged in full.
+  void noteFactorization(bool reordered, bool full, const FactorizationStats& stats,
+                         std::int64_t deferred_products);
 
   // Whether a reordering is split over two updates, given the block products of the last full
   // refactorization.

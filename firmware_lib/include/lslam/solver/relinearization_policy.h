@@ -77,16 +77,30 @@ class RelinearizationPolicy {
     if (relinearizesMost(relinearized)) return true;
     if (options_.relinearize_full_cost_ratio <= 0.0 || last_full.products == 0) return false;
     const std::int64_t in_place = in_place_products();
-    const double full =
-        options_.relinearize_full_cost_ratio * static_cast<double>(last_full.products) *
-        static_cast<double>(factor_.liveBlocks()) / static_cast<double>(last_full.blocks);
-    return static_cast<double>(in_place) > full;
+    return static_cast<double>(in_place) >
+           options_.relinearize_full_cost_ratio * fullProducts(last_full);
+  }
+
+  // Whether relinearizing `relinearized` variables would take more block products than
+  // relinearize_defer_products both in place and by a full refactorization (estimated from the
+  // last one, scaled by the factor's growth), and the candidates have waited fewer than
+  // relinearize_defer_updates updates; in_place_products() is called only if the rest holds.
+  template <class InPlaceProducts>
+  bool defersRelinearization(Index relinearized, const FullRefactorizationCost& last_full,
+                             InPlaceProducts in_place_products) const {
+    const double bar = static_cast<double>(options_.relinearize_defer_products);
+    if (relinearized == 0 || !(bar > 0.0) || last_full.products == 0) return false;
+    if (updates_deferred_ >= options_.relinearize_defer_updates) return false;
+    return fullProducts(last_full) > bar && static_cast<double>(in_place_products()) > bar;
   }
 
   // After a solve that visited the columns visited[0 .. count) (positions in variable_at's order).
   void noteCandidates(const Index* visited, Index count, const Index* variable_at);
-  // After a committed update: relinearized (the candidates were due) or not.
-  void noteUpdate(bool relinearized, const Vector* delta);
+  // After a committed update: relinearized (the candidates were due), deferred (due, and left
+  // waiting for the next reordering: see defersRelinearization), or neither.
+  void noteUpdate(bool relinearized, bool deferred, const Vector* delta);
+  // Whether the candidates wait for a reordering already, their charge paid.
+  bool deferralCharged() const { return updates_deferred_ > 0; }
   // Every candidate relinearized (Gauss-Newton).
   void clearCandidates();
 
@@ -98,6 +112,11 @@ class RelinearizationPolicy {
     RelinearizationBars of[kKinds];
   };
   Bars bars() const;
+  // The block products of a full refactorization now: the last one's, scaled by the growth since.
+  double fullProducts(const FullRefactorizationCost& last_full) const {
+    return static_cast<double>(last_full.products) * static_cast<double>(factor_.liveBlocks()) /
+           static_cast<double>(last_full.blocks);
+  }
   // Whether the graph is below converge_below_variables (SolverOptions).
   bool convergesWithinUpdates() const;
   int kindOf(Index v) const;
@@ -112,7 +131,8 @@ class RelinearizationPolicy {
   const SolverOptions& options_;
   Index candidate_count_ = 0;
   Index updates_since_relinearization_ = 0;
-  bool urgent_ = false;  // a waiting candidate passed the urgent bar
+  bool urgent_ = false;         // a waiting candidate passed the urgent bar
+  Index updates_deferred_ = 0;  // updates the due candidates have waited (defersRelinearization)
 };
 
 }  // namespace lslam

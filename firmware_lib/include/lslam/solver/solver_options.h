@@ -87,6 +87,20 @@ struct SolverOptions {
   // relinearized under a stale ordering can reach most of the top, which then costs more than
   // refactorizing every column. 0: off.
   double relinearize_full_cost_ratio = 1.0;
+  // A due relinearization that would take more block products than this (of the model's largest
+  // block size), in place and by a full refactorization alike, waits for the next reordering,
+  // which relinearizes it free; its in-place estimate is charged to that reordering's work budget
+  // (reorder_excess_ratio) the first time it waits, so that the reordering comes sooner the dearer
+  // it would have been. Only a dense top costs this much: a revisit-heavy map, where loop
+  // closures spend the budget and reorder every few dozen updates anyway (a 5,000-pose grid
+  // relinearized at up to 150 M products per update, 80 % of its run; the public datasets stay
+  // under 1.4 M). The bar trades candidates waiting at a stale point on such a map against steps
+  // that cost a refactorization. 0: off.
+  std::int64_t relinearize_defer_products = 4000000;
+  // The longest wait, in updates; then the relinearization runs (the grid's reorderings come
+  // within about 50 updates; 64 cost it 2x the time). It bounds how long a map that stops closing
+  // loops keeps candidates at a stale point.
+  Index relinearize_defer_updates = 256;
   // Updates that only add factors (no variable relinearized, no reordering) rotate the added
   // factors' whitened rows into L along their etree paths (IncrementalCholesky::addFactorRows):
   // O(s) work per column of structure s instead of O(s^2) for recomputing the column. Off: every
