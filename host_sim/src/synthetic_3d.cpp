@@ -23,10 +23,10 @@ using detail::Pose3;
 
 void checkOptions(const Synthetic3DOptions& o) {
   const auto probability = [](double p) { return p >= 0.0 && p <= 1.0; };
-  if (o.laps < 1 || o.poses < 2 * o.laps || o.landmarks < 0 || o.max_observations_per_pose < 0 ||
-      !probability(o.loop_probability) || !probability(o.observation_probability) ||
-      !(o.radius > 0.0) || !(o.sensor_range >= 0.0) || !(o.sigma_translation > 0.0) ||
-      !(o.sigma_rotation > 0.0) || !(o.sigma_point > 0.0)) {
+  if (o.laps < 1 || o.sweep_laps < 0 || o.poses < 2 * o.laps || o.landmarks < 0 ||
+      o.max_observations_per_pose < 0 || !probability(o.loop_probability) ||
+      !probability(o.observation_probability) || !(o.radius > 0.0) || !(o.sensor_range >= 0.0) ||
+      !(o.sigma_translation > 0.0) || !(o.sigma_rotation > 0.0) || !(o.sigma_point > 0.0)) {
     throw std::invalid_argument("generateLandmarkWorld3D: option out of range");
   }
 }
@@ -36,7 +36,9 @@ Pose3 truePose(const Synthetic3DOptions& o, int i) {
   const int per_lap = o.poses / o.laps;
   const int lap = std::min(i / per_lap, o.laps - 1);
   const double phi = 2.0 * kPi * static_cast<double>(i) / static_cast<double>(per_lap);
-  const double r = o.radius + o.lap_radius_step * static_cast<double>(lap);
+  const int period = 2 * o.sweep_laps;
+  const int swept = period > 0 ? std::min(lap % period, period - lap % period) : lap;
+  const double r = o.radius + o.lap_radius_step * static_cast<double>(swept);
   const double z = o.height_amplitude * std::sin(2.0 * phi + static_cast<double>(lap));
   const double slope = 2.0 * o.height_amplitude * std::cos(2.0 * phi + lap) / r;
   const double yaw = phi + 0.5 * kPi;

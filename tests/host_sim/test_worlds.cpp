@@ -424,6 +424,27 @@ TEST_CASE("worlds: geometry of each world") {
     CHECK(std::abs(step.y()) < 1e-9);
   }
   CHECK(top > 0);  // reaches the top floor
+  // points3d sweeps its radius out for 10 laps of 100 poses and back in for 10: a long run keeps
+  // flying over the same landmarks, and sees some in every lap.
+  WorldOptions points = defaultWorldOptions(WorldKind::Points3D);
+  points.steps = 4000;
+  const SimulatedWorld flown = simulateWorld(WorldKind::Points3D, points);
+  std::vector<double> lap_radius(40, 0.0);
+  std::vector<int> lap_observations(40, 0);
+  for (int i = 0; i < points.steps; ++i) {
+    const Eigen::VectorXd& v = flown.truth.vertices[static_cast<std::size_t>(i)].value;
+    lap_radius[static_cast<std::size_t>(i / 100)] =
+        std::max(lap_radius[static_cast<std::size_t>(i / 100)], std::hypot(v[0], v[1]));
+  }
+  for (const ModelFactor& f : flown.dataset.factors) {
+    if (f.second.role == VariableRole::Landmark) ++lap_observations[f.first.id / 100];
+  }
+  for (std::size_t lap = 0; lap < 40; ++lap) {
+    CAPTURE(lap);
+    const double swept = static_cast<double>(std::min(lap % 20, 20 - lap % 20));
+    CHECK(lap_radius[lap] == doctest::Approx(points.radius + 0.3 * swept).epsilon(1e-9));
+    CHECK(lap_observations[lap] > 50);
+  }
   // Landmarks: every observed one exists, and each lies within the sensor's range of its pose.
   WorldOptions grid = defaultWorldOptions(WorldKind::Grid2D);
   grid.steps = 300;

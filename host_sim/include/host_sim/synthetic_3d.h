@@ -2,7 +2,8 @@
 // A small synthetic 3D SLAM dataset with point landmarks, for the Cortex-M7 landmark stream
 // (data/landmarks_3d_300.g2o). Host-only.
 //
-// The robot flies `laps` laps of a wavy circle (radius growing by lap_radius_step each lap, height
+// The robot flies `laps` laps of a wavy circle (radius growing by lap_radius_step each lap for
+// sweep_laps laps, then shrinking as long back, and so on; height
 // height_amplitude * sin(2 phi + lap)), facing along the track with a small roll; pose ids
 // 0..poses-1 in time order. Landmarks (ids poses, poses + 1, ...) are scattered around the track
 // (radius +-landmark_spread, height -1..2 m); only those observed at least twice are kept,
@@ -30,12 +31,16 @@
 namespace lslam::sim {
 
 struct Synthetic3DOptions {
-  int poses = 300;                       // >= 2 * laps
-  int laps = 3;                          // >= 1
-  int landmarks = 40;                    // scattered before the observation filter, >= 0
-  std::uint32_t seed = 7;                // mt19937 seed
-  double radius = 10.0;                  // metres, first lap
-  double lap_radius_step = 0.3;          // metres per lap
+  int poses = 300;               // >= 2 * laps
+  int laps = 3;                  // >= 1
+  int landmarks = 40;            // scattered before the observation filter, >= 0
+  std::uint32_t seed = 7;        // mt19937 seed
+  double radius = 10.0;          // metres, first lap
+  double lap_radius_step = 0.3;  // metres per lap
+  // Laps after which the radius turns: it sweeps out and back in between radius and radius +
+  // sweep_laps x lap_radius_step, so that a long run keeps flying over the same landmarks (0: it
+  // grows for ever).
+  int sweep_laps = 10;
   double height_amplitude = 0.5;         // metres
   double landmark_spread = 3.0;          // metres around the track
   double loop_probability = 0.3;         // in [0, 1]

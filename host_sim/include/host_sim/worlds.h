@@ -21,7 +21,8 @@
 //             down, again and again, closing loops to earlier poses within loop_radius on the same
 //             floor (at most max_loops_per_pose per pose, with loop_probability).
 //   points3d  the 3D landmark world of synthetic_3d.h: steps / 100 laps (at least one) of a wavy
-//             circle of `radius`, growing 0.3 m a lap; from the second lap on, a loop closure to
+//             circle of `radius`, growing 0.3 m a lap for 10 laps and shrinking back for 10 (a
+//             long run keeps over the same landmarks); from the second lap on, a loop closure to
 //             the pose one lap back with loop_probability (max_loops_per_pose 0: none); observing
 //             the nearest of `landmarks` points within sensor_range as positions in the robot
 //             frame (EDGE_SE3_TRACKXYZ).
