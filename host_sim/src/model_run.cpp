@@ -12,6 +12,8 @@
 #include <unordered_map>
 
 #include "host_sim/model_steps.h"
+#include "host_sim/place_smoother.h"
+#include "lslam/factors/merged_measurement.h"
 #include "lslam/models/pose_slam_2d.h"
 #include "lslam/models/pose_slam_3d.h"
 #include "lslam/models/slam_2d.h"
@@ -360,6 +362,10 @@ class CompactRunner {
     CompactStats stats;
 
     std::unordered_map<std::int64_t, Place<Pose>> places;
+    // Every step's place and the odometry to the next, for the backward smoothing at the end.
+    std::vector<std::int64_t> ids;
+    std::vector<Place<Pose>> trajectory;
+    std::vector<FilteredPlace<Pose>> filtered;
     std::vector<PlaceClosure<Pose>> closures;
     std::vector<Observation> observations;
     std::int64_t previous = -1;
@@ -427,6 +433,8 @@ class CompactRunner {
                              "--max-poses: pose " + std::to_string(step.new_pose.id) +
                                  " has no odometry from pose " + std::to_string(previous));
         }
+        filtered.back().odometry = odometry;
+        filtered.back().odometry_covariance = tangentCovariance(information);
         // The pose's value when introduced: the current place's estimate and the odometry.
         out.initial[step.new_pose] =
             toParameters(graph.estimate(graph.current()).compose(odometry));
@@ -453,12 +461,21 @@ class CompactRunner {
       out.peak_factor_blocks = std::max(out.peak_factor_blocks, record.result.factor_blocks);
       out.steps.push_back(record);
       places[step.new_pose.id] = graph.current();
+      ids.push_back(step.new_pose.id);
+      trajectory.push_back(graph.current());
+      filtered.emplace_back();
       if (s == 0) out.initial[step.new_pose] = toParameters(graph.estimate(graph.current()));
       introduceLandmarks(graph, step, observations, out.initial);
       previous = step.new_pose.id;
     }
-    for (const auto& [id, place] : places) {
-      out.estimate[VariableKey{VariableRole::Pose, id}] = toParameters(graph.estimate(place));
+    // Each pose: its place, filtered on the map's final nodes, then smoothed backward.
+    for (std::size_t k = 0; k < trajectory.size(); ++k) {
+      filtered[k].estimate = graph.estimate(trajectory[k]);
+      filtered[k].covariance = trajectory[k].covariance;
+    }
+    const std::vector<Pose> smoothed = smoothPlaces(filtered);
+    for (std::size_t k = 0; k < ids.size(); ++k) {
+      out.estimate[VariableKey{VariableRole::Pose, ids[k]}] = toParameters(smoothed[k]);
     }
     // Landmarks: the solver's estimate; one it had no room for stays at its first sighting.
     for (const auto& [key, value] : out.initial) {
@@ -512,6 +529,13 @@ class CompactRunner {
         }
       }
     }
+  }
+
+  // A between measurement's information (its error coordinates) as a covariance in the tangent.
+  static Matrix tangentCovariance(const Matrix& information) {
+    const Matrix tangent_per_error =
+        betweenErrorPerTangent<Pose>().diagonal().cwiseInverse().asDiagonal();
+    return tangent_per_error * information.inverse() * tangent_per_error;
   }
 
   const ModelDataset& d_;

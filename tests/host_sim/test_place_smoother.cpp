@@ -1,0 +1,193 @@
+// smoothPlaces (host_sim/place_smoother.h) against the batch least-squares solution of the same
+// factors: a chain with a prior, odometry and pose measurements, filtered forward by the test's own
+// filter, then smoothed backward, must land where Gauss-Newton on every factor at once lands (to
+// first order in the noise), in 2D and in 3D.
+#include <doctest/doctest.h>
+
+#include <random>
+#include <vector>
+
+#include "host_sim/place_smoother.h"
+#include "lslam/geometry/se2.h"
+#include "lslam/geometry/se3.h"
+
+using namespace lslam;
+using namespace lslam::sim;
+
+namespace {
+
+template <class Pose>
+using Tangent = Eigen::Matrix<double, Pose::kDof, 1>;
+template <class Pose>
+using Matrix = Eigen::Matrix<double, Pose::kDof, Pose::kDof>;
+
+template <class Pose>
+Tangent<Pose> gaussian(std::mt19937& rng, double sigma) {
+  std::normal_distribution<double> n(0.0, sigma);
+  Tangent<Pose> v;
+  for (int i = 0; i < Pose::kDof; ++i) v(i) = n(rng);
+  return v;
+}
+
+// The chain's factors: a prior on the first pose, odometry between consecutive poses, pose
+// measurements at some steps; one pose known exactly (a node of the compact map).
+template <class Pose>
+struct Chain {
+  Pose prior;
+  std::vector<Pose> odometry;  // odometry[i]: pose i + 1 seen from pose i
+  std::vector<Pose> measured;  // measured[i]: pose i measured, where has_measurement[i]
+  std::vector<bool> has_measurement;
+  int known = -1;  // this pose is `measured` exactly
+  double sigma = 0.0;
+};
+
+template <class Pose>
+Chain<Pose> makeChain(int n, double sigma, std::mt19937& rng) {
+  Chain<Pose> c;
+  c.sigma = sigma;
+  std::vector<Pose> truth(1, Pose().retract(gaussian<Pose>(rng, 1.0)));
+  for (int i = 1; i < n; ++i) {
+    const Pose step = Pose().retract(gaussian<Pose>(rng, 0.4));
+    truth.push_back(truth.back().compose(step));
+    c.odometry.push_back(step.retract(gaussian<Pose>(rng, sigma)));
+  }
+  c.prior = truth[0].retract(gaussian<Pose>(rng, sigma));
+  for (int i = 0; i < n; ++i) {
+    c.has_measurement.push_back(i % 7 == 6 || i == n - 1);
+    c.measured.push_back(truth[static_cast<std::size_t>(i)].retract(gaussian<Pose>(rng, sigma)));
+  }
+  c.known = n / 2;
+  c.measured[static_cast<std::size_t>(c.known)] = truth[static_cast<std::size_t>(c.known)];
+  c.has_measurement[static_cast<std::size_t>(c.known)] = false;
+  return c;
+}
+
+// Forward: predict through the odometry (right perturbations), update with a pose measurement as
+// the information-weighted mean in the tangent at the prediction; the known pose resets the chain.
+template <class Pose>
+std::vector<FilteredPlace<Pose>> filterChain(const Chain<Pose>& c) {
+  const double var = c.sigma * c.sigma;
+  const Matrix<Pose> q = var * Matrix<Pose>::Identity();
+  std::vector<FilteredPlace<Pose>> out;
+  Pose x = c.prior;
+  Matrix<Pose> p = q;
+  for (std::size_t i = 0; i < c.measured.size(); ++i) {
+    if (i > 0) {
+      Matrix<Pose> j;
+      x = x.compose(c.odometry[i - 1], &j);
+      p = j * p * j.transpose() + q;
+    }
+    if (static_cast<int>(i) == c.known) {
+      x = c.measured[i];
+      p.setZero();
+    } else if (c.has_measurement[i]) {
+      const Matrix<Pose> gain = p * (p + q).inverse();
+      x = x.retract(gain * x.localCoordinates(c.measured[i]));
+      p = (Matrix<Pose>::Identity() - gain) * p;
+      p = (0.5 * (p + p.transpose())).eval();
+    }
+    FilteredPlace<Pose> f;
+    f.estimate = x;
+    f.covariance = p;
+    if (i + 1 < c.measured.size()) {
+      f.odometry = c.odometry[i];
+      f.odometry_covariance = q;
+    }
+    out.push_back(f);
+  }
+  return out;
+}
+
+// Every whitened residual of the chain at the poses x (the known one held).
+template <class Pose>
+Eigen::VectorXd residuals(const Chain<Pose>& c, const std::vector<Pose>& x) {
+  constexpr int d = Pose::kDof;
+  std::vector<Tangent<Pose>> r;
+  r.push_back(c.prior.localCoordinates(x[0]));
+  for (std::size_t i = 0; i + 1 < x.size(); ++i) {
+    r.push_back(x[i].compose(c.odometry[i]).localCoordinates(x[i + 1]));
+  }
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    if (c.has_measurement[i]) r.push_back(x[i].localCoordinates(c.measured[i]));
+  }
+  Eigen::VectorXd out(static_cast<Eigen::Index>(r.size()) * d);
+  for (std::size_t k = 0; k < r.size(); ++k) {
+    out.segment<d>(static_cast<Eigen::Index>(k) * d) = r[k] / c.sigma;
+  }
+  return out;
+}
+
+// Gauss-Newton with central-difference Jacobians over every pose but the known one.
+template <class Pose>
+std::vector<Pose> solveBatch(const Chain<Pose>& c, std::vector<Pose> x) {
+  constexpr int d = Pose::kDof;
+  const Eigen::Index n = static_cast<Eigen::Index>(x.size()) * d;
+  const double h = 1e-6;
+  for (int iteration = 0; iteration < 20; ++iteration) {
+    const Eigen::VectorXd r = residuals(c, x);
+    Eigen::MatrixXd jacobian = Eigen::MatrixXd::Zero(r.size(), n);
+    for (Eigen::Index col = 0; col < n; ++col) {
+      const std::size_t i = static_cast<std::size_t>(col / d);
+      if (static_cast<int>(i) == c.known) continue;
+      const Tangent<Pose> e = Tangent<Pose>::Unit(static_cast<int>(col % d)) * h;
+      std::vector<Pose> plus = x;
+      std::vector<Pose> minus = x;
+      plus[i] = x[i].retract(e);
+      minus[i] = x[i].retract(-e);
+      jacobian.col(col) = (residuals(c, plus) - residuals(c, minus)) / (2.0 * h);
+    }
+    Eigen::MatrixXd normal = jacobian.transpose() * jacobian;
+    const std::size_t known = static_cast<std::size_t>(c.known);
+    normal.block(static_cast<Eigen::Index>(known) * d, static_cast<Eigen::Index>(known) * d, d,
+                 d) +=
+        Matrix<Pose>::Identity();  // the known pose's column is zero: keep the system regular
+    const Eigen::VectorXd step = normal.ldlt().solve(-jacobian.transpose() * r);
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      x[i] = x[i].retract(step.segment<d>(static_cast<Eigen::Index>(i) * d));
+    }
+    if (step.lpNorm<Eigen::Infinity>() < 1e-12) break;
+  }
+  return x;
+}
+
+template <class Pose>
+double maxDistance(const std::vector<Pose>& a, const std::vector<Pose>& b) {
+  double m = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    m = std::max(m, a[i].localCoordinates(b[i]).template lpNorm<Eigen::Infinity>());
+  }
+  return m;
+}
+
+template <class Pose>
+void checkSmootherMatchesBatch() {
+  std::mt19937 rng(11);
+  for (int trial = 0; trial < 20; ++trial) {
+    CAPTURE(trial);
+    const double sigma = 1e-3;
+    const Chain<Pose> c = makeChain<Pose>(30, sigma, rng);
+    const std::vector<FilteredPlace<Pose>> filtered = filterChain(c);
+    std::vector<Pose> forward;
+    for (const FilteredPlace<Pose>& f : filtered) forward.push_back(f.estimate);
+    const std::vector<Pose> smoothed = smoothPlaces(filtered);
+    const std::vector<Pose> batch = solveBatch(c, smoothed);
+    // The known pose and the last (nothing after it) are the filter's own.
+    CHECK(smoothed[static_cast<std::size_t>(c.known)]
+              .localCoordinates(forward[static_cast<std::size_t>(c.known)])
+              .norm() == 0.0);
+    CHECK(smoothed.back().localCoordinates(forward.back()).norm() == 0.0);
+    // The filter alone is off by about the noise; the smoother by its square (linearization).
+    CHECK(maxDistance(forward, batch) > 10.0 * sigma * sigma);
+    CHECK(maxDistance(smoothed, batch) < 10.0 * sigma * sigma);
+  }
+}
+
+}  // namespace
+
+TEST_CASE("smoothPlaces lands on the batch solution of the chain's factors, in SE(2)") {
+  checkSmootherMatchesBatch<SE2>();
+}
+
+TEST_CASE("smoothPlaces lands on the batch solution of the chain's factors, in SE(3)") {
+  checkSmootherMatchesBatch<SE3>();
+}
