@@ -23,8 +23,8 @@ using detail::Pose3;
 
 void checkOptions(const Synthetic3DOptions& o) {
   const auto probability = [](double p) { return p >= 0.0 && p <= 1.0; };
-  if (o.laps < 1 || o.sweep_laps < 0 || o.poses < 2 * o.laps || o.landmarks < 0 ||
-      o.max_observations_per_pose < 0 || !probability(o.loop_probability) ||
+  if (o.laps < 1 || o.sweep_laps < 0 || o.sweep_laps > 1000000 || o.poses < 2 * o.laps ||
+      o.landmarks < 0 || o.max_observations_per_pose < 0 || !probability(o.loop_probability) ||
       !probability(o.observation_probability) || !(o.radius > 0.0) || !(o.sensor_range >= 0.0) ||
       !(o.sigma_translation > 0.0) || !(o.sigma_rotation > 0.0) || !(o.sigma_point > 0.0)) {
     throw std::invalid_argument("generateLandmarkWorld3D: option out of range");

@@ -172,9 +172,11 @@ void checkTracksBatch(const UpdatePaths& paths) {
     Estimate2D initial;
     bool check_due = false;
     std::size_t checks = 0;
+    int deferred = 0;
     for (std::size_t s = 0; s < steps.size(); ++s) {
       lslam::UpdateResult r;
       REQUIRE(feedStep(*solver, d, steps[s], initial, &r) == Status::Ok);
+      deferred += r.relinearization_deferred ? 1 : 0;
       check_due = check_due || s % 40 == 39 || s + 1 == steps.size();
       // A relinearization that waits leaves the estimate at a stale point until the wait ends.
       if (!check_due || r.relinearization_deferred) continue;
@@ -192,6 +194,7 @@ void checkTracksBatch(const UpdatePaths& paths) {
     }
     // Every check point was checked, but the last if a wait was still on at the end.
     CHECK(checks + 1 >= (steps.size() + 39) / 40);
+    CHECK((deferred > 0) == paths.deferred_relinearization);
   }
 }
 
@@ -369,44 +372,53 @@ TEST_CASE("the rent-or-buy rule reorders exactly when the growth work passes its
   // ratio x (its factorization's block products) x (its factor blocks); every later update adds
   // its block products x the factor's growth since the ordering; the first update that starts
   // with the sum past the budget prepares an ordering, and the next update applies it. The other
-  // triggers are off.
-  for (const double ratio : {0.0, 0.25, 1.0}) {
-    CAPTURE(ratio);
-    for (std::uint32_t seed = 40; seed < 44; ++seed) {
-      CAPTURE(seed);
-      SolverOptions options = policyOptions();
-      options.reorder_min_variables = 20;
-      options.reorder_growth = 1e9;
-      options.reorder_path_columns = 0;
-      options.reorder_relinearized_share = 2.0;  // never a full refactorization for relinearizing
-      options.relinearize_full_cost_ratio = 0.0;
-      options.reorder_excess_ratio = ratio;
-      std::int64_t budget = 0;
-      std::int64_t excess = 0;
-      Index base = 0;
-      int orderings = 0;
-      runOnline(
-          300, seed, options, [&](const lslam::UpdateResult& r, bool prepared, const Solver&) {
-            CHECK(r.reordered == prepared);
-            if (base > 0)
-              CHECK(r.ordering_prepared == (!prepared && budget > 0 && excess > budget));
-            if (r.reordered) {
-              ++orderings;
-              base = r.factor_blocks;
-              budget = static_cast<std::int64_t>(ratio * static_cast<double>(r.block_products) *
-                                                 static_cast<double>(base));
-              excess = 0;
-            } else if (base > 0 && r.factor_blocks > base) {
-              excess += r.block_products * (r.factor_blocks - base);
-            }
-          });
-      if (ratio == 0.0) {
-        CHECK(orderings == 1);  // only the first, at reorder_min_variables
-      } else {
-        CHECK(orderings > 1);
+  // triggers are off. With every relinearization deferred (relinearize_defer_products 1), the
+  // first update of each wait adds its charge x the factor blocks at the ordering too.
+  for (const bool defer : {false, true})
+    for (const double ratio : {0.0, 0.25, 1.0}) {
+      CAPTURE(defer);
+      CAPTURE(ratio);
+      int charges = 0;
+      for (std::uint32_t seed = 40; seed < 44; ++seed) {
+        CAPTURE(seed);
+        SolverOptions options = policyOptions();
+        options.reorder_min_variables = 20;
+        options.reorder_growth = 1e9;
+        options.reorder_path_columns = 0;
+        options.reorder_relinearized_share = 2.0;  // never a full refactorization for relinearizing
+        options.relinearize_full_cost_ratio = 0.0;
+        options.reorder_excess_ratio = ratio;
+        options.relinearize_defer_products = defer ? 1 : 0;
+        std::int64_t budget = 0;
+        std::int64_t excess = 0;
+        Index base = 0;
+        int orderings = 0;
+        runOnline(
+            300, seed, options, [&](const lslam::UpdateResult& r, bool prepared, const Solver&) {
+              CHECK(r.reordered == prepared);
+              if (base > 0)
+                CHECK(r.ordering_prepared == (!prepared && budget > 0 && excess > budget));
+              if (r.reordered) {
+                ++orderings;
+                base = r.factor_blocks;
+                budget = static_cast<std::int64_t>(ratio * static_cast<double>(r.block_products) *
+                                                   static_cast<double>(base));
+                excess = 0;
+              } else if (base > 0) {
+                if (r.factor_blocks > base) excess += r.block_products * (r.factor_blocks - base);
+                excess += r.relinearization_charge * base;
+              }
+              CHECK(r.relinearization_charge >= 0);
+              charges += r.relinearization_charge > 0 ? 1 : 0;
+            });
+        if (ratio == 0.0) {
+          CHECK(orderings == 1);  // only the first, at reorder_min_variables
+        } else {
+          CHECK(orderings > 1);
+        }
       }
+      CHECK((charges > 0) == defer);
     }
-  }
 }
 
 namespace {
@@ -479,15 +491,14 @@ TEST_CASE(
                     ++waited;
                     ++deferred;
                     CHECK(waited <= cap);
-                  } else if (waited > 0) {
-                    if (r.reordered) {
-                      ++ended_by_reordering;
-                    } else if (waited == cap) {
-                      ++ended_at_cap;
-                    }
-                    // (A dear relinearization in a stale order only prepares one: still waiting.)
-                    if (r.reordered || r.variables_relinearized > 0) waited = 0;
-                  }
+                  } else if (waited > 0 && r.reordered) {
+                    ++ended_by_reordering;
+                    waited = 0;
+                  } else if (waited > 0 && r.variables_relinearized > 0) {
+                    CHECK(waited == cap);  // bar 1: nothing but the cap ends a wait in place
+                    ++ended_at_cap;
+                    waited = 0;
+                  }  // (else a dear relinearization in a stale order prepared one: still waiting)
                 });
     }
     CHECK(deferred > 0);
@@ -495,6 +506,35 @@ TEST_CASE(
     if (cap == 3) CHECK(ended_at_cap > 0);
     if (cap == 1000) CHECK(ended_at_cap == 0);
   }
+}
+
+TEST_CASE("a wait counts updates, not the urgent iterations of their solves") {
+  // With urgent_iterations, the solve after each update tries to relinearize again; while the
+  // relinearization waits, that pass changes nothing and must not count as an update of the wait:
+  // the longest wait is the cap, three updates.
+  Index longest = 0;
+  for (std::uint32_t seed = 70; seed < 76; ++seed) {
+    CAPTURE(seed);
+    SolverOptions options = urgentAtEveryUpdate();
+    options.relinearize_defer_products = 1;
+    options.relinearize_defer_updates = 3;
+    options.urgent_iterations = 4;
+    const Dataset2D d = syntheticWorld(200, seed);
+    const std::vector<Step> steps = buildSteps(d, StepOrder::Online);
+    auto solver = std::make_unique<SmallSolver>(options);
+    Estimate2D initial;
+    Index waited = 0;
+    for (const Step& step : steps) {
+      lslam::UpdateResult r;
+      REQUIRE(feedStep(*solver, d, step, initial, &r) == Status::Ok);
+      const bool waiting =
+          r.relinearization_deferred && r.variables_relinearized == 0 && !r.reordered;
+      waited = waiting ? waited + 1 : 0;
+      CHECK(waited <= 3);
+      longest = std::max(longest, waited);
+    }
+  }
+  CHECK(longest == 3);
 }
 
 namespace {

@@ -176,9 +176,10 @@ void checkSmootherMatchesBatch() {
               .localCoordinates(forward[static_cast<std::size_t>(c.known)])
               .norm() == 0.0);
     CHECK(smoothed.back().localCoordinates(forward.back()).norm() == 0.0);
-    // The filter alone is off by about the noise; the smoother by its square (linearization).
-    CHECK(maxDistance(forward, batch) > 10.0 * sigma * sigma);
-    CHECK(maxDistance(smoothed, batch) < 10.0 * sigma * sigma);
+    // The filter alone is off by about the noise (over 2,000 sigma^2 here); the smoother by its
+    // square (linearization: under 10 sigma^2 here).
+    CHECK(maxDistance(forward, batch) > 500.0 * sigma * sigma);
+    CHECK(maxDistance(smoothed, batch) < 50.0 * sigma * sigma);
   }
 }
 

@@ -110,6 +110,7 @@ Status FactorizationDriver<Graph, Factor>::refactor(Ordering& ordering, const Up
   r.refactored_fully = full;
   r.top_reordered = top_reordered;
   r.relinearization_deferred = plan.relinearization_deferred;
+  r.relinearization_charge = plan.deferred_products;
   r.variables_relinearized = relinearized.count;
   r.columns_refactored = stats.columns_recomputed;
   r.block_products = stats.block_products;

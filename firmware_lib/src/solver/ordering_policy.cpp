@@ -44,7 +44,9 @@ bool OrderingPolicy<Graph, Factor>::wantsReorder() const {
 // in integers, the budget computed once per ordering: per update only an integer multiply-add and
 // compare, whose cost does not depend on the values: a division, or a conversion of the sum to
 // double in software, costs the Cortex-M more as the sum grows, and an odometry step's cost must
-// not drift.
+// not drift. A relinearization that waits for the next ordering (relinearize_defer_products) is
+// charged its in-place estimate in full, once. The sum stops once past the budget (the trigger
+// stays), so that it cannot overflow however long the ordering lasts.
 template <class Graph, class Factor>
 void OrderingPolicy<Graph, Factor>::noteFactorization(bool reordered, bool full,
                                                       const FactorizationStats& stats,
@@ -60,8 +62,9 @@ void OrderingPolicy<Graph, Factor>::noteFactorization(bool reordered, bool full,
     excess_work_ = 0;
     return;
   }
+  if (excess_budget_ == 0 || excess_work_ > excess_budget_) return;
   const Index growth = factor_.liveBlocks() - blocks_at_last_order_;
-  if (blocks_at_last_order_ > 0 && growth > 0) excess_work_ += block_products * growth;
+  if (growth > 0) excess_work_ += block_products * growth;
   excess_work_ += deferred_products * blocks_at_last_order_;
 }
 

@@ -259,8 +259,13 @@ void Smoother<Model>::solve(bool full, UpdateResult* result) {
   const Index iterations = relinearization_.iterationsWithinSolve();
   for (Index i = 0; i < iterations && relinearization_.urgent(); ++i) {
     UpdateResult step;
-    // A failed pass changed nothing: the solution stands, the candidates wait.
-    if (relinearizeCandidates(step) != Status::Ok || step.relinearization_deferred) break;
+    // A failed pass, or one whose relinearization must wait for a reordering
+    // (relinearize_defer_products), changed nothing: the solution stands, the candidates wait.
+    if (relinearizeCandidates(step) != Status::Ok) break;
+    if (step.relinearization_deferred) {
+      if (result != nullptr) result->relinearization_deferred = true;
+      break;
+    }
     backSubstitute(full, result);
     if (result == nullptr) continue;
     result->iterations = i + 1;
@@ -285,6 +290,12 @@ Status Smoother<Model>::relinearizeCandidates(UpdateResult& result) {
   graph_.beginUpdate();
   driver_.beginStaging();
   const UpdatePlan plan = planUpdate(0, false);
+  if (plan.relinearization_deferred) {
+    // Nothing to factorize: the wait is counted, and charged, by updates alone.
+    graph_.rollback();
+    result.relinearization_deferred = true;
+    return Status::Ok;
+  }
   const Status s = refactor(0, plan, true, result);
   if (s != Status::Ok) return s;
   relinearization_.noteUpdate(plan.relinearize_now, plan.relinearization_deferred, delta_);

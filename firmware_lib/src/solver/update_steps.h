@@ -13,9 +13,10 @@ namespace detail {
 // prepared ordering is applied now; a stale one is replaced now, or prepared at the end of this
 // update and applied by the next (prepare_ordering_ahead). The candidates are relinearized when
 // one is urgent, at a reordering, or every relinearize_skip updates; in place, or by a full
-// refactorization when that is cheaper (relinearizationDear); one too dear in place waits for the
-// next reordering (defersRelinearization). An update that drops the anchor
-// reorders now, a full refactorization: a factor cannot be taken out of L in place.
+// refactorization when that is cheaper (relinearizationDear); one dearer than
+// relinearize_defer_products both ways waits for the next reordering (defersRelinearization). An
+// update that drops the anchor reorders now, a full refactorization: a factor cannot be taken out
+// of L in place.
 template <class Graph, class Ordering, class Relinearization, class Driver, class Vector>
 UpdatePlan planUpdate(Graph& graph, Ordering& ordering, Relinearization& relinearization,
                       Driver& driver, const Vector* delta, Index new_variables, bool drop_anchor) {
@@ -46,9 +47,10 @@ UpdatePlan planUpdate(Graph& graph, Ordering& ordering, Relinearization& relinea
     }
     return in_place;
   };
-  if (!plan.reorder_now && !drop_anchor &&
-      relinearization.defersRelinearization(plan.relinearized, driver.lastFull(),
-                                            in_place_products)) {
+  // (The in-place estimate counts the update's own columns too: relinearizing turns a loop
+  // closure's row update into the recomputation of its path.)
+  if (!plan.reorder_now && relinearization.defersRelinearization(
+                               plan.relinearized, driver.lastFull(), in_place_products)) {
     // Too dear either way (relinearize_defer_products): the candidates wait for the reordering
     // that the charge of their first wait brings closer.
     graph.unstageRelinearization();

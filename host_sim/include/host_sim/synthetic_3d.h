@@ -39,7 +39,7 @@ struct Synthetic3DOptions {
   double lap_radius_step = 0.3;  // metres per lap
   // Laps after which the radius turns: it sweeps out and back in between radius and radius +
   // sweep_laps x lap_radius_step, so that a long run keeps flying over the same landmarks (0: it
-  // grows for ever).
+  // grows for ever; at most 1,000,000).
   int sweep_laps = 10;
   double height_amplitude = 0.5;         // metres
   double landmark_spread = 3.0;          // metres around the track

@@ -22,8 +22,10 @@ struct UpdateResult {
   bool compacted = false;           // the block pool was compacted
   bool reordered_for_room = false;  // the update did not fit in its order and ran in a fresh one
   bool laid_out = false;            // the last full refactorization's layout was done here
-  bool relinearization_deferred = false;  // due candidates wait for the next reordering
-  Index factor_blocks = 0;                // nonzero blocks of L after the call
+  bool relinearization_deferred = false;    // due candidates wait for the next reordering
+  std::int64_t relinearization_charge = 0;  // block products the wait charged to the ordering's
+                                            // work budget (its first update only)
+  Index factor_blocks = 0;                  // nonzero blocks of L after the call
   Index iterations = 0;  // optimize(): Gauss-Newton iterations; solve(): urgent iterations
 };
 
