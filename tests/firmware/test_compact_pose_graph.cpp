@@ -16,6 +16,7 @@
 #include "lslam/factors/merged_measurement.h"
 #include "lslam/factors/se3_factors.h"
 #include "lslam/models/pose_slam_2d.h"
+#include "lslam/models/slam_2d.h"
 #include "lslam/solver/compact_pose_graph.h"
 #include "lslam/solver/smoother.h"
 
@@ -313,6 +314,61 @@ TEST_CASE("a compact graph of 200 poses maps a revisit-heavy world for 5000 step
   MESSAGE("offsets' mean squared Mahalanobis error " << mean << " over " << count << " poses");
   CHECK(mean > 1.5);
   CHECK(mean < 10.0);
+}
+
+TEST_CASE(
+    "past the capacity an observation of a mapped landmark folds into the current node's factor "
+    "of it, if the graph has one, and corrects the place either way") {
+  // Six nodes (0..5) on a line; landmark 100 seen from nodes 0 and 5, landmark 101 from node 0
+  // only. Past the capacity the places ride on node 5: 100 folds into the factor 5 -> 100, 101
+  // (no factor 5 -> 101) only corrects the place; no factor is added.
+  using Landmarks = CompactPoseGraph<Slam2D>;
+  auto solver = std::make_unique<StaticSmoother<Slam2D, 6, 4, 40, 40 * 12, 2000, 2000 * 9>>();
+  Landmarks graph(*solver);
+  const Mat3 odometry_information = Vec3(100.0, 100.0, 400.0).asDiagonal();
+  const SE2 step(1.0, 0.0, 0.0);
+  const auto seen = [](VariableId landmark, const SE2& robot, const Vec2& where) {
+    return Landmarks::Observation{landmark, robot.inverse().transformFrom(where),
+                                  Mat2::Identity() * 100.0};
+  };
+  const Vec2 l100(3.0, 2.0);
+  const Vec2 l101(1.0, -2.0);
+  REQUIRE(graph.start(SE2()) == Status::Ok);
+  const Landmarks::Observation first[2] = {seen(100, SE2(), l100), seen(101, SE2(), l101)};
+  REQUIRE(graph.addObservations(first, 2) == Status::Ok);
+  SE2 truth;
+  for (int k = 1; k <= 5; ++k) {
+    truth = truth.compose(step);
+    const Landmarks::Observation at_five = seen(100, truth, l100);
+    CompactStepResult r;
+    REQUIRE(graph.addStep(step, odometry_information, nullptr, 0, &at_five, k == 5 ? 1 : 0, &r) ==
+            Status::Ok);
+    REQUIRE(r.node_added);
+  }
+  const auto& g = solver->graph();
+  const Index l100_index = solver->indexOf<Point2>(100);
+  Index pair = kNoIndex;
+  for (Index f = 0; f < g.factors(); ++f) {
+    if (g.firstVariable(f) == solver->indexOf<SE2>(5) && g.secondVariable(f) == l100_index)
+      pair = f;
+  }
+  REQUIRE(pair != kNoIndex);
+  const Mat2 before = g.information<PointObservationSE2Factor>(pair);
+  const Index factors = solver->factors();
+  truth = truth.compose(step);
+  const Landmarks::Observation later[2] = {seen(100, truth, l100), seen(101, truth, l101)};
+  CompactStepResult r;
+  REQUIRE(graph.addStep(step, odometry_information, nullptr, 0, later, 2, &r) == Status::Ok);
+  CHECK_FALSE(r.node_added);
+  CHECK(r.folded == 1);
+  CHECK(r.localized == 2);
+  CHECK(r.factors_added == 0);
+  CHECK(r.dropped == 0);
+  CHECK(solver->factors() == factors);
+  // The fold added the observation's information, carried through the place's offset.
+  const Mat2 after = g.information<PointObservationSE2Factor>(pair);
+  CHECK(after.trace() > before.trace());
+  CHECK((after - before).eval().llt().info() == Eigen::Success);
 }
 
 TEST_CASE("a rejected step past capacity changes nothing") {

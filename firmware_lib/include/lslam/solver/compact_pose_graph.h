@@ -16,8 +16,9 @@
 //    measurement T_b z T_a^-1, whose covariance is the three parts' propagated to first order.
 //    The current pose is then fused with the closure's view of it, on the older of a and b
 //    (relocalize). A landmark seen for the first time enters from the current place (its
-//    observation carried through the offset); a mapped landmark corrects the current place
-//    (localizeOn) and adds nothing to the map.
+//    observation carried through the offset); an observation of a mapped landmark is folded into
+//    the current node's factor of it, if the graph has one, and corrects the current place
+//    (localizeOn).
 //  - A derived factor on a pair the graph already joins is folded into that factor
 //    (Smoother::addFolded): factors do not grow with time either. A pair not yet joined takes a
 //    factor while the smoother has one to spare (one is kept for folds) and the live Cholesky
@@ -59,7 +60,7 @@ struct CompactStepResult {
   Index folded = 0;           // ... merged into a factor already there
   Index dropped = 0;          // ... that found no room (factors, landmarks or block pool)
   Index landmarks_added = 0;  // landmarks seen for the first time
-  Index localized = 0;        // observations of mapped landmarks that corrected the place only
+  Index localized = 0;        // observations of mapped landmarks that corrected the place
   Index updates = 0;          // smoother updates the step made
   std::int64_t block_products = 0;
   bool reordered = false;
