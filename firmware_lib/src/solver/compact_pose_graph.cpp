@@ -254,7 +254,8 @@ void CompactPoseGraph<Model>::observe(const Observation& o, CompactStepResult& r
       // The place may hold the map's own estimate from earlier corrections, which the fold
       // counts again, as relocalize's fusion does for loop closures. What it trades, on points3d:
       // 8 % above full smoothing's trajectory error, against 12 % when a mapped landmark only
-      // corrected the place; new pairs from places too ended 22 % above, and slower.
+      // corrected the place; pairs not yet joined taken from places too ended 22 % above, and
+      // slower.
       if (current_.atNode()) {
         static_cast<void>(addOrFold<Observed>(factor, factorOf<Observed>(nodeIndex(a), l), r));
       } else {
