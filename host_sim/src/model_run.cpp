@@ -434,7 +434,7 @@ class CompactRunner {
                                  " has no odometry from pose " + std::to_string(previous));
         }
         filtered.back().odometry = odometry;
-        filtered.back().odometry_covariance = tangentCovariance(information);
+        filtered.back().odometry_covariance = betweenTangentCovariance<Pose>(information);
         // The pose's value when introduced: the current place's estimate and the odometry.
         out.initial[step.new_pose] =
             toParameters(graph.estimate(graph.current()).compose(odometry));
@@ -529,13 +529,6 @@ class CompactRunner {
         }
       }
     }
-  }
-
-  // A between measurement's information (its error coordinates) as a covariance in the tangent.
-  static Matrix tangentCovariance(const Matrix& information) {
-    const Matrix tangent_per_error =
-        betweenErrorPerTangent<Pose>().diagonal().cwiseInverse().asDiagonal();
-    return tangent_per_error * information.inverse() * tangent_per_error;
   }
 
   const ModelDataset& d_;

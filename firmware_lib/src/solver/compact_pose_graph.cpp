@@ -1,5 +1,6 @@
 #include "lslam/solver/compact_pose_graph.h"
 
+#include "lslam/factors/merged_measurement.h"
 #include "lslam/models/pose_slam_2d.h"
 #include "lslam/models/pose_slam_3d.h"
 #include "lslam/models/slam_2d.h"
@@ -22,16 +23,6 @@ Pose composeWithCovariance(const Pose& a, const Matrix<Pose>& sa, const Pose& b,
   return c;
 }
 
-// A column at a time: a matrix right-hand side takes Eigen's blocked solver, whose workspace may
-// come from the heap.
-template <class Pose>
-Matrix<Pose> inverseOf(const Matrix<Pose>& spd) {
-  const Eigen::LLT<Matrix<Pose>> llt(spd);
-  Matrix<Pose> inverse;
-  for (int c = 0; c < Pose::kDof; ++c) inverse.col(c) = llt.solve(Matrix<Pose>::Identity().col(c));
-  return inverse;
-}
-
 // A place's covariance: finite, symmetric and positive semi-definite.
 template <class Pose>
 bool validCovariance(const Matrix<Pose>& m) {
@@ -40,19 +31,12 @@ bool validCovariance(const Matrix<Pose>& m) {
   return ldlt.info() == Eigen::Success && ldlt.isPositive();
 }
 
-// A between measurement's information (error coordinates) as a covariance in the tangent, and
-// back (betweenErrorPerTangent: e = S tau).
-template <class Pose>
-Matrix<Pose> tangentCovariance(const Matrix<Pose>& information) {
-  Matrix<Pose> inverse_s = betweenErrorPerTangent<Pose>();
-  inverse_s.diagonal() = inverse_s.diagonal().cwiseInverse();
-  return inverse_s * inverseOf<Pose>(information) * inverse_s;
-}
-
+// A tangent covariance as a between measurement's information in its error coordinates (back
+// from betweenTangentCovariance; betweenErrorPerTangent: e = S tau).
 template <class Pose>
 Matrix<Pose> errorInformation(const Matrix<Pose>& covariance) {
   const Matrix<Pose> s = betweenErrorPerTangent<Pose>();
-  return inverseOf<Pose>(s * covariance * s);
+  return positiveDefiniteInverse<Pose>(s * covariance * s);
 }
 
 }  // namespace
@@ -116,7 +100,7 @@ Status CompactPoseGraph<Model>::addStep(const Pose& odometry, const Matrix& info
   Matrix covariance;
   const Pose offset =
       composeWithCovariance<Pose>(current_.offset, current_.covariance, odometry,
-                                  tangentCovariance<Pose>(information), &covariance);
+                                  betweenTangentCovariance<Pose>(information), &covariance);
   const auto& graph = smoother_.graph();
   if (graph.freeVariablesOfKind(0) > 0 && roomForFactor<Between>()) {
     const Index node = smoother_.poses();
@@ -165,11 +149,11 @@ void CompactPoseGraph<Model>::closeLoop(const Closure& c, CompactStepResult& r) 
   Matrix seen_covariance;
   const Pose seen_offset =
       composeWithCovariance<Pose>(c.seen.offset, c.seen.covariance, c.measurement,
-                                  tangentCovariance<Pose>(c.information), &seen_covariance);
+                                  betweenTangentCovariance<Pose>(c.information), &seen_covariance);
   if (a != b) {
     const bool exact = current_.atNode() && c.seen.atNode();
     Pose z = c.measurement;  // b -> a
-    Matrix covariance = tangentCovariance<Pose>(c.information);
+    Matrix covariance = betweenTangentCovariance<Pose>(c.information);
     if (!exact) {
       Matrix j_inverse;
       const Pose to_node = current_.offset.inverse(&j_inverse);
@@ -216,15 +200,15 @@ void CompactPoseGraph<Model>::relocalize(Index b, const Pose& seen, const Matrix
     return from == node ? offset
                         : estimateAt(node).inverse().compose(estimateAt(from)).compose(offset);
   };
-  const Matrix seen_information = inverseOf<Pose>(seen_covariance);
-  const Matrix current_information = inverseOf<Pose>(current_.covariance);
+  const Matrix seen_information = positiveDefiniteInverse<Pose>(seen_covariance);
+  const Matrix current_information = positiveDefiniteInverse<Pose>(current_.covariance);
   const Matrix sum = seen_information + current_information;
   const Pose carried = inFrameOf(a, current_.offset);
   const Pose from_seen = inFrameOf(b, seen);
   // The mean in the tangent at the closure's view (covariances are tangent ones here).
   const auto step =
       sum.llt().solve(current_information * from_seen.localCoordinates(carried)).eval();
-  current_ = PlaceT{node, from_seen.retract(step), inverseOf<Pose>(sum)};
+  current_ = PlaceT{node, from_seen.retract(step), positiveDefiniteInverse<Pose>(sum)};
   r.relocalized = true;
 }
 
@@ -243,8 +227,8 @@ void CompactPoseGraph<Model>::observe(const Observation& o, CompactStepResult& r
       z = current_.offset.transformFrom(o.position, &j_pose, &j_point);
       const PointMatrix covariance =
           j_pose * current_.covariance * j_pose.transpose() +
-          j_point * inverseOf<Landmark>(o.information) * j_point.transpose();
-      info = inverseOf<Landmark>(covariance);
+          j_point * positiveDefiniteInverse<Landmark>(o.information) * j_point.transpose();
+      info = positiveDefiniteInverse<Landmark>(covariance);
     }
     const auto factor = ModelFactorInput<Model>::template make<Observed>(a, o.landmark, z, info);
     const Index l = smoother_.template indexOf<Landmark>(o.landmark);
@@ -301,10 +285,11 @@ void CompactPoseGraph<Model>::localizeOn(Index landmark, const Observation& o) {
         Observed::error(estimate(current_), smoother_.template estimateAt<Landmark>(landmark),
                         o.position, &j, nullptr);
     const Matrix information =
-        inverseOf<Pose>(current_.covariance) + j.transpose() * o.information * j;
+        positiveDefiniteInverse<Pose>(current_.covariance) + j.transpose() * o.information * j;
     const Eigen::LLT<Matrix> llt(information);
     const auto step = llt.solve(-(j.transpose() * (o.information * e))).eval();
-    current_ = PlaceT{current_.node, current_.offset.retract(step), inverseOf<Pose>(information)};
+    current_ = PlaceT{current_.node, current_.offset.retract(step),
+                      positiveDefiniteInverse<Pose>(information)};
   } else {
     static_cast<void>(landmark);
     static_cast<void>(o);

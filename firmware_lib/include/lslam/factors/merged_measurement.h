@@ -17,6 +17,27 @@ Eigen::Matrix<double, G::kDof, G::kDof> betweenErrorPerTangent() noexcept {
   return s;
 }
 
+// The inverse of a positive-definite matrix the size of G's tangent, a column at a time: a matrix
+// right-hand side takes Eigen's blocked solver, whose workspace may come from the heap.
+template <class G>
+Eigen::Matrix<double, G::kDof, G::kDof> positiveDefiniteInverse(
+    const Eigen::Matrix<double, G::kDof, G::kDof>& spd) noexcept {
+  using Matrix = Eigen::Matrix<double, G::kDof, G::kDof>;
+  const Eigen::LLT<Matrix> llt(spd);
+  Matrix inverse;
+  for (int c = 0; c < G::kDof; ++c) inverse.col(c) = llt.solve(Matrix::Identity().col(c));
+  return inverse;
+}
+
+// A between measurement's information (error coordinates) as a covariance in the tangent.
+template <class G>
+Eigen::Matrix<double, G::kDof, G::kDof> betweenTangentCovariance(
+    const Eigen::Matrix<double, G::kDof, G::kDof>& information) noexcept {
+  Eigen::Matrix<double, G::kDof, G::kDof> inverse_s = betweenErrorPerTangent<G>();
+  inverse_s.diagonal() = inverse_s.diagonal().cwiseInverse();
+  return inverse_s * positiveDefiniteInverse<G>(information) * inverse_s;
+}
+
 // G: SE2 or SE3, with information in the between factors' error coordinates (retract and
 // localCoordinates work in the tangent: betweenErrorPerTangent converts).
 template <class G>

@@ -8,8 +8,7 @@
 //  - Every pose of the trajectory is a Place: a node (a pose variable of the smoother) and the
 //    pose's offset from it, with the offset's covariance (zero for a node).
 //  - While the smoother has room, each step's pose is a node of its own, joined to the current
-//  place by
-//    its odometry (composed with the current offset), and the graph is full smoothing.
+//    place by its odometry (composed with the current offset), and the graph is full smoothing.
 //  - At capacity the trajectory rides on the nodes: odometry composes onto the current offset
 //    (its covariance grows, first order), and a loop closure from a place seen earlier (node b,
 //    offset T_b) to the current pose (node a, offset T_a) becomes a between factor b -> a of
