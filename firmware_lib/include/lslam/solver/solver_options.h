@@ -89,14 +89,14 @@ struct SolverOptions {
   double relinearize_full_cost_ratio = 1.0;
   // A due relinearization that would take more block products than this (of the model's largest
   // block size), in place and by a full refactorization alike, waits for the next reordering,
-  // which relinearizes it free; its in-place estimate is charged to that reordering's work budget
-  // (reorder_excess_ratio) the first time it waits, so that the reordering comes sooner the dearer
-  // it would have been (with reorder_excess_ratio 0 it waits for the growth rule or the cap
-  // below). Only a dense top costs this much: a revisit-heavy map, where loop
-  // closures spend the budget and reorder every few dozen updates anyway (a 5,000-pose grid
-  // relinearized at up to 150 M products per update, 80 % of its run; the public datasets stay
-  // under 1.4 M). The bar trades candidates waiting at a stale point on such a map against steps
-  // that cost a refactorization. 0: off.
+  // which relinearizes it at no extra cost; its in-place estimate is charged to that reordering's
+  // work budget (reorder_excess_ratio) the first time it waits, so that the reordering comes sooner
+  // the dearer it would have been (with reorder_excess_ratio 0 it waits for the growth rule or the
+  // cap below). Only a dense top costs this much: a revisit-heavy map, where loop closures spend
+  // the budget and reorder every few dozen updates anyway (a 5,000-pose grid relinearized at up to
+  // 150 M products per update, 80 % of its run; the public datasets stay under 1.4 M). The bar
+  // trades candidates waiting at a stale point on such a map against steps that cost a
+  // refactorization. 0: off.
   std::int64_t relinearize_defer_products = 4000000;
   // The longest wait, in updates; then the relinearization runs (the grid's reorderings come
   // within about 50 updates; 64 cost it 2x the time). It bounds how long a map that stops closing
