@@ -126,6 +126,36 @@ Index factorOf(const Smoother<PoseSlam2D>& solver, Index a, Index b) {
   return kNoIndex;
 }
 
+SyntheticWorld manhattanWorld(int poses, unsigned seed) {
+  SyntheticOptions o;
+  o.poses = poses;
+  o.seed = seed;
+  return generateManhattanWorld(o);
+}
+
+// Feeds every step of `steps` (a synthetic world's) to a compact graph on `solver`, each loop
+// closure from the place kept for the pose it sees; after(s, status, result) follows each step.
+// Returns every step's place.
+template <class After>
+std::vector<Place<SE2>> runSteps(Smoother<PoseSlam2D>& solver, const SyntheticWorld& world,
+                                 const std::vector<WorldStep>& steps, After after) {
+  Graph graph(solver);
+  std::vector<Place<SE2>> places(steps.size());
+  REQUIRE(graph.start(toSE2(world.dataset.vertices.front().pose)) == Status::Ok);
+  places[0] = graph.current();
+  for (std::size_t s = 1; s < steps.size(); ++s) {
+    const WorldStep& w = steps[s];
+    REQUIRE(w.odometry != nullptr);
+    const std::vector<Closure> closures = closuresOf(w, places);
+    CompactStepResult r;
+    const Status status = graph.addStep(toSE2(w.odometry->measurement), w.odometry->information,
+                                        closures.data(), static_cast<Index>(closures.size()), &r);
+    places[s] = graph.current();
+    after(s, status, r);
+  }
+  return places;
+}
+
 }  // namespace
 
 TEST_CASE("mergedMeasurement: the information-weighted mean of two measurements a shift apart") {
@@ -227,37 +257,24 @@ TEST_CASE("addFolded refuses what it cannot fold and changes nothing") {
 }
 
 TEST_CASE("a compact graph of 200 poses maps a revisit-heavy world for 5000 steps") {
-  SyntheticOptions o;
-  o.poses = 5000;
-  o.seed = 11;
-  const SyntheticWorld world = generateManhattanWorld(o);
+  const SyntheticWorld world = manhattanWorld(5000, 11);
   const std::vector<WorldStep> steps = worldSteps(world.dataset);
   auto solver = std::make_unique<CompactSmoother>();
-  Graph graph(*solver);
-  std::vector<Place<SE2>> places(steps.size());
-  REQUIRE(graph.start(toSE2(world.dataset.vertices.front().pose)) == Status::Ok);
-  places[0] = graph.current();
   Index folded = 0;
   Index dropped = 0;
   Index late_folds = 0;  // in the last 1,000 steps
   Index not_ok = 0;
-  for (std::size_t s = 1; s < steps.size(); ++s) {
-    const WorldStep& w = steps[s];
-    REQUIRE(w.odometry != nullptr);
-    const std::vector<Closure> closures = closuresOf(w, places);
-    CompactStepResult r;
-    const Status status = graph.addStep(toSE2(w.odometry->measurement), w.odometry->information,
-                                        closures.data(), static_cast<Index>(closures.size()), &r);
-    not_ok += status == Status::Ok ? 0 : 1;
-    solver->solve(false);
-    folded += r.folded;
-    dropped += r.dropped;
-    late_folds += s + 1000 >= steps.size() ? r.folded : 0;
-    CHECK(r.node_added == (s < 200));
-    places[s] = graph.current();
-  }
+  const std::vector<Place<SE2>> places = runSteps(
+      *solver, world, steps, [&](std::size_t s, Status status, const CompactStepResult& r) {
+        not_ok += status == Status::Ok ? 0 : 1;
+        solver->solve(false);
+        folded += r.folded;
+        dropped += r.dropped;
+        late_folds += s + 1000 >= steps.size() ? r.folded : 0;
+        CHECK(r.node_added == (s < 200));
+      });
   CHECK(not_ok == 0);
-  CHECK(graph.nodes() == 200);
+  CHECK(solver->poses() == 200);
   CHECK(solver->factors() <= CompactSmoother::max_factors);
   MESSAGE("folded " << folded << ", dropped " << dropped << ", factors " << solver->factors());
   CHECK(folded > 300);    // the graph keeps learning past its capacity...
@@ -371,11 +388,43 @@ TEST_CASE(
   CHECK((after - before).eval().llt().info() == Eigen::Success);
 }
 
+TEST_CASE("at its pool share a grown factor is reordered for room before a pair is dropped") {
+  // The pool of CompactSmoother cut so that the live factor reaches kNewPairPoolShare of it.
+  using SmallPool = StaticSmoother<PoseSlam2D, 200, 0, 801, 801 * 12, 3400, 0>;
+  const SyntheticWorld world = manhattanWorld(3000, 11);
+  const std::vector<WorldStep> steps = worldSteps(world.dataset);
+  auto solver = std::make_unique<SmallPool>();
+  Index reordered = 0;
+  Index dropped = 0;
+  Index added = 0;
+  Index not_ok = 0;
+  runSteps(*solver, world, steps, [&](std::size_t s, Status status, const CompactStepResult& r) {
+    not_ok += status == Status::Ok ? 0 : 1;
+    if (s < 200) return;
+    reordered += r.reordered ? 1 : 0;
+    added += r.factors_added;
+    dropped += r.dropped;
+    if (r.dropped > 0) {
+      // A drop only with the factor at its share and not grown enough since its last order to
+      // reorder for room (or with no factor slot left).
+      CAPTURE(s);
+      CHECK(static_cast<double>(solver->factorBlocks()) >
+            Graph::kNewPairPoolShare * static_cast<double>(SmallPool::max_factor_blocks) -
+                static_cast<double>(SmallPool::max_factor_blocks) / 10.0);
+      CHECK((static_cast<double>(solver->factorBlocks()) <
+                 Graph::kRoomReorderGrowth * static_cast<double>(solver->blocksAtLastOrder()) ||
+             solver->factors() + 2 > SmallPool::max_factors));
+    }
+  });
+  MESSAGE("past the capacity: " << reordered << " steps reordered, " << added << " pairs added, "
+                                << dropped << " dropped, live blocks " << solver->factorBlocks());
+  CHECK(not_ok == 0);
+  CHECK(reordered > 0);
+  CHECK(added > 0);
+}
+
 TEST_CASE("a rejected step past capacity changes nothing") {
-  SyntheticOptions o;
-  o.poses = 400;
-  o.seed = 5;
-  const SyntheticWorld world = generateManhattanWorld(o);
+  const SyntheticWorld world = manhattanWorld(400, 5);
   const std::vector<WorldStep> steps = worldSteps(world.dataset);
   auto solver = std::make_unique<TwinSmoother>();
   Graph graph(*solver);

@@ -722,6 +722,94 @@ TEST_CASE("Slam3D: a rejected update of each kind changes nothing") {
   checkRejections(stream, *solver, *twin, 6, make);
 }
 
+// ---- reorder() ----------------------------------------------------------------------------------
+
+// Options under which only the caller reorders and nothing relinearizes: the solution is then that
+// of one linear system whatever the order.
+lslam::SolverOptions linearInCallersOrder() {
+  lslam::SolverOptions o = lslam::defaultSolverOptions<PoseSlam2D>();
+  o.relinearize_threshold = 1e9;
+  o.relinearize_urgent_threshold = 1e9;
+  o.converge_below_variables = 0;
+  o.reorder_min_variables = 1000000;
+  return o;
+}
+
+TEST_CASE("reorder(): a fresh order gives the same solution in less fill") {
+  const Stream<PoseSlam2D> stream = stream2D<PoseSlam2D>(31, 160, 0);
+  auto solver = std::make_unique<SmootherPoses2D>(linearInCallersOrder());
+  auto twin = std::make_unique<SmootherPoses2D>(linearInCallersOrder());
+  int reorders = 0;
+  int less_fill = 0;
+  for (std::size_t k = 0; k < stream.steps.size(); ++k) {
+    CAPTURE(k);
+    REQUIRE(feed(*solver, stream.steps[k]) == Status::Ok);
+    REQUIRE(feed(*twin, stream.steps[k]) == Status::Ok);
+    if (k < 20 || k % 30 != 0) continue;
+    const Index chronological = twin->factorBlocks();
+    lslam::UpdateResult r;
+    REQUIRE(solver->reorder(&r) == Status::Ok);
+    CHECK(r.status == Status::Ok);
+    CHECK(r.reordered);
+    CHECK(r.refactored_fully);
+    CHECK(r.variables_added == 0);
+    CHECK(solver->blocksAtLastOrder() == solver->factorBlocks());
+    // The twin never reorders (reorder_min_variables): its order is the chronological one, whose
+    // fill COLAMD undercuts once the graph has loop closures far apart in time.
+    CHECK(solver->factorBlocks() <= chronological);
+    less_fill += solver->factorBlocks() < chronological ? 1 : 0;
+    ++reorders;
+    solver->solve(true);
+    twin->solve(true);
+    for (Index v = 0; v < solver->variables(); ++v) {
+      CAPTURE(v);
+      CHECK((solver->deltaAt(v) - twin->deltaAt(v)).cwiseAbs().maxCoeff() < 1e-9);
+    }
+  }
+  CHECK(reorders >= 4);
+  CHECK(less_fill >= 3);
+}
+
+TEST_CASE("reorder() that finds no room for the new factor beside the live one changes nothing") {
+  // A chain with short loop closures: an update stages a few columns, a reordering a whole factor.
+  // The pool holds the live factor and an update's columns, not a second factor.
+  using Tight = lslam::StaticSmoother<PoseSlam2D, 128, 0, 256, 256 * 12, 400, 0>;
+  using Var = lslam::ModelVariableInput<PoseSlam2D>;
+  using Fac = lslam::ModelFactorInput<PoseSlam2D>;
+  auto solver = std::make_unique<Tight>(linearInCallersOrder());
+  auto twin = std::make_unique<Tight>(linearInCallersOrder());
+  const Mat3 info = Eigen::Vector3d(400.0, 400.0, 10000.0).asDiagonal();
+  int refused = 0;
+  for (lslam::VariableId i = 0; i < 120; ++i) {
+    CAPTURE(i);
+    const SE2 z(1.0, 0.01 * static_cast<double>(i % 5), 0.05);
+    Var v = Var::make(i, SE2());
+    std::vector<Fac> f;
+    if (i > 0) {
+      v = Var::make(i, solver->estimateAt<SE2>(static_cast<Index>(i - 1)).compose(z));
+      f.push_back(Fac::make<lslam::BetweenSE2Factor>(i - 1, i, z, info));
+    }
+    if (i >= 3 && i % 4 == 0)
+      f.push_back(Fac::make<lslam::BetweenSE2Factor>(i - 3, i, SE2(2.9, 0.1, 0.15), info));
+    for (auto* s : {static_cast<lslam::Smoother<PoseSlam2D>*>(solver.get()),
+                    static_cast<lslam::Smoother<PoseSlam2D>*>(twin.get())}) {
+      REQUIRE(s->update(&v, 1, f.data(), static_cast<Index>(f.size())) == Status::Ok);
+    }
+    if (2 * solver->factorBlocks() <= Tight::max_factor_blocks) continue;
+    const std::vector<double> before = snapshot(*solver);
+    const Index blocks = solver->factorBlocks();
+    lslam::UpdateResult r;
+    CHECK(solver->reorder(&r) == Status::CapacityExhausted);
+    CHECK(r.status == Status::CapacityExhausted);
+    CHECK(sameBits(before, snapshot(*solver)));
+    CHECK(solver->factorBlocks() == blocks);
+    ++refused;
+  }
+  CHECK(refused > 5);
+  // ... and the steps after each refusal went on exactly as the twin's, which was never asked.
+  CHECK(sameBits(snapshot(*solver), snapshot(*twin)));
+}
+
 TEST_CASE("the caller's first pose prior takes the anchor out") {
   using Var = lslam::ModelVariableInput<Slam2D>;
   using Fac = lslam::ModelFactorInput<Slam2D>;

@@ -256,7 +256,7 @@ void CompactPoseGraph<Model>::observe(const Observation& o, CompactStepResult& r
     const auto& graph = smoother_.graph();
     UpdateResult u;
     Status s = Status::CapacityExhausted;
-    if (graph.freeVariablesOfKind(1) > 0 && roomForNewPair<Observed>()) {
+    if (graph.freeVariablesOfKind(1) > 0 && makeRoomForNewPair<Observed>(r)) {
       const auto landmark = ModelVariableInput<Model>::make(
           o.landmark, Observed::initialize(estimate(current_), o.position));
       s = smoother_.update(&landmark, 1, &factor, 1, &u);
@@ -304,7 +304,7 @@ bool CompactPoseGraph<Model>::addOrFold(const ModelFactorInput<Model>& factor, I
   Status s = Status::CapacityExhausted;
   if (existing != kNoIndex) {
     s = smoother_.addFolded(factor, existing, &u);
-  } else if (roomForNewPair<F>()) {
+  } else if (makeRoomForNewPair<F>(r)) {
     s = smoother_.update(nullptr, 0, &factor, 1, &u);
   }
   if (s == Status::Ok) {
@@ -337,6 +337,22 @@ bool CompactPoseGraph<Model>::roomForNewPair() const {
   const auto& factor = smoother_.factor();
   return roomForFactor<F>() && static_cast<double>(factor.liveBlocks()) <=
                                    kNewPairPoolShare * static_cast<double>(factor.poolCapacity());
+}
+
+template <class Model>
+template <class F>
+bool CompactPoseGraph<Model>::makeRoomForNewPair(CompactStepResult& r) {
+  if (roomForNewPair<F>()) return true;
+  const Index ordered = smoother_.blocksAtLastOrder();
+  if (!roomForFactor<F>() || ordered == 0 ||
+      static_cast<double>(smoother_.factorBlocks()) <
+          kRoomReorderGrowth * static_cast<double>(ordered)) {
+    return false;
+  }
+  UpdateResult u;
+  if (smoother_.reorder(&u) != Status::Ok) return false;  // (it changed nothing)
+  record(u, r);
+  return roomForNewPair<F>();
 }
 
 template <class Model>

@@ -240,9 +240,9 @@ void Smoother<Model>::addInputs(const Variable* variables, Index num_variables,
 
 // See detail::planUpdate (update_steps.h).
 template <class Model>
-UpdatePlan Smoother<Model>::planUpdate(Index new_variables, bool drop_anchor) {
+UpdatePlan Smoother<Model>::planUpdate(Index new_variables, bool drop_anchor, bool force_reorder) {
   return detail::planUpdate(graph_, ordering_, relinearization_, driver_, delta_, new_variables,
-                            drop_anchor);
+                            drop_anchor, force_reorder);
 }
 
 // See detail::refactorAndRestart (update_steps.h).
@@ -300,6 +300,25 @@ Status Smoother<Model>::relinearizeCandidates(UpdateResult& result) {
   if (s != Status::Ok) return s;
   relinearization_.noteUpdate(plan.relinearize_now, plan.relinearization_deferred, delta_);
   if (plan.prepare_ordering) result.ordering_prepared = ordering_.prepareOrdering();
+  return Status::Ok;
+}
+
+template <class Model>
+Status Smoother<Model>::reorder(UpdateResult* result) {
+  UpdateResult local;
+  UpdateResult& r = result != nullptr ? *result : local;
+  r = UpdateResult{};
+  graph_.beginUpdate();
+  driver_.beginStaging();
+  r.laid_out = cholesky_.layoutPending();
+  const UpdatePlan plan = planUpdate(0, false, true);
+  const Status s = refactor(0, plan, true, r);
+  if (s != Status::Ok) {
+    r.status = s;
+    return s;
+  }
+  relinearization_.noteUpdate(plan.relinearize_now, plan.relinearization_deferred, delta_);
+  if (options_.solve_after_update) solve(false, &r);
   return Status::Ok;
 }
 

@@ -16,10 +16,11 @@ namespace detail {
 // refactorization when that is cheaper (relinearizationDear); one dearer than
 // relinearize_defer_products both ways waits for the next reordering (defersRelinearization). An
 // update that drops the anchor reorders now, a full refactorization: a factor cannot be taken out
-// of L in place.
+// of L in place; so does one that the caller asks to (force_reorder).
 template <class Graph, class Ordering, class Relinearization, class Driver, class Vector>
 UpdatePlan planUpdate(Graph& graph, Ordering& ordering, Relinearization& relinearization,
-                      Driver& driver, const Vector* delta, Index new_variables, bool drop_anchor) {
+                      Driver& driver, const Vector* delta, Index new_variables, bool drop_anchor,
+                      bool force_reorder = false) {
   UpdatePlan plan;
   plan.drop_anchor = drop_anchor;
   ordering.placeAddedVariablesLast();
@@ -28,8 +29,10 @@ UpdatePlan planUpdate(Graph& graph, Ordering& ordering, Relinearization& relinea
     return driver.addedLoopClosures(position_of);
   });
   const bool prepared = ordering.prepared();
-  const bool ordering_stale = prepared || plan.fresh_ordering || ordering.wantsReorder();
+  const bool ordering_stale =
+      force_reorder || prepared || plan.fresh_ordering || ordering.wantsReorder();
   plan.prepare_ordering = ordering_stale && !prepared && !plan.fresh_ordering && !drop_anchor &&
+                          !force_reorder &&
                           ordering.preparesOrderingAhead(driver.lastFull().products);
   plan.reorder_now = (ordering_stale || drop_anchor) && !plan.prepare_ordering;
   plan.relinearize_now = relinearization.due(plan.reorder_now);

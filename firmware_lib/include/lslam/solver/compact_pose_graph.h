@@ -21,8 +21,10 @@
 //  - A derived factor on a pair the graph already joins is folded into that factor
 //    (Smoother::addFolded): factors do not grow with time either. A pair not yet joined takes a
 //    factor while the smoother has one to spare (one is kept for folds) and the live Cholesky
-//    factor fills at most kNewPairPoolShare of the block pool; past that the measurement is dropped
-//    (counted in the step's result) and only localizes.
+//    factor fills at most kNewPairPoolShare of the block pool. At that share, a factor that has
+//    grown by kRoomReorderGrowth since its last ordering is reordered first (the incremental
+//    order fills more and more, and a full factor takes no updates that would reorder it); past
+//    that the measurement is dropped (counted in the step's result) and only localizes.
 //
 // Every step's inputs are checked before anything changes; a rejected step changes nothing. Node
 // ids are 0, 1, 2, ... in the order they were added (the smoother's pose ids).
@@ -89,6 +91,9 @@ class CompactPoseGraph {
   // New pairs stop once the live factor holds this share of the block pool (roomForNewPair): a
   // reordering stages a copy beside it, and the fill of later folds needs the rest.
   static constexpr double kNewPairPoolShare = 0.4;
+  // A factor at that share is reordered for room once it has grown this much since its last
+  // ordering: lower reorders more often for less room gained each time.
+  static constexpr double kRoomReorderGrowth = 1.2;
 
   explicit CompactPoseGraph(Smoother<Model>& smoother) : smoother_(smoother) {}
 
@@ -132,6 +137,9 @@ class CompactPoseGraph {
   bool roomForFactor() const;
   template <class F>
   bool roomForNewPair() const;
+  // roomForNewPair, after a reordering for room if the factor grew enough since its last order.
+  template <class F>
+  bool makeRoomForNewPair(CompactStepResult& r);
   // The graph index of node `node` (its pose id).
   Index nodeIndex(Index node) const;
   void closeLoop(const Closure& closure, CompactStepResult& r);

@@ -59,6 +59,8 @@ class OrderingPolicy {
     return burst > 0 && added_factors > burst &&
            graph_.variables() >= options_.reorder_min_variables && count_loop_closures() > burst;
   }
+  // The live blocks right after the last reordering (0 before the first).
+  Index blocksAtLastOrder() const { return blocks_at_last_order_; }
   // The factor has grown little since the last ordering (reorder_refresh_growth).
   bool orderingFresh() const;
   // After a committed factorization (see the work budget in the source); deferred_products: the

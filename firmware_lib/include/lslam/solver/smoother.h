@@ -163,6 +163,12 @@ class Smoother {
   // reordering rebuilds it from the graph.
   [[nodiscard]] Status addFolded(const Measurement& factor, Index into,
                                  UpdateResult* result = nullptr);
+  // An update without inputs that reorders now: every column refactorized in a fresh COLAMD order
+  // (or the one prepared for the next update), the waiting candidates relinearized with them,
+  // then solved as an update is. For a caller that needs the fill back (CompactPoseGraph): the
+  // incremental order fills more as the graph grows. A failure (the pool cannot hold the
+  // reordered factor beside the live one) changes nothing.
+  [[nodiscard]] Status reorder(UpdateResult* result = nullptr);
   // Back-substitution on demand (partial per options, or full), then up to
   // SolverOptions::urgent_iterations relinearizations of urgent candidates, each solved again.
   void solve(bool full, UpdateResult* result = nullptr);
@@ -203,6 +209,8 @@ class Smoother {
   Index landmarks() const { return kKinds > 1 ? graph_.variablesOfKind(kKinds - 1) : 0; }
   Index factors() const { return graph_.factors(); }
   Index factorBlocks() const { return cholesky_.liveBlocks(); }
+  // The live blocks right after the last reordering (0 before the first).
+  Index blocksAtLastOrder() const { return ordering_.blocksAtLastOrder(); }
   // The solver's anchor factor while it is in the problem, else kNoIndex.
   Index anchorFactor() const { return gauge_.anchorFactor(); }
   const SolverOptions& options() const { return options_; }
@@ -213,7 +221,7 @@ class Smoother {
   const Index* variableAt() const { return ordering_.variableAt(); }
 
  private:
-  UpdatePlan planUpdate(Index new_variables, bool drop_anchor);
+  UpdatePlan planUpdate(Index new_variables, bool drop_anchor, bool force_reorder = false);
   Status refactor(Index new_variables, const UpdatePlan& plan, bool allow_reorder,
                   UpdateResult& result);
   void addInputs(const Variable* variables, Index num_variables, const Measurement* factors,
