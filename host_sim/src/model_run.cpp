@@ -362,10 +362,13 @@ class CompactRunner {
     CompactStats stats;
 
     std::unordered_map<std::int64_t, Place<Pose>> places;
-    // Every step's place and the odometry to the next, for the backward smoothing at the end.
+    // What the robot logs for the trajectory's estimate at the end (place_smoother.h): every
+    // step's place, odometry, loop closures and observations; the log's index of each pose id.
     std::vector<std::int64_t> ids;
     std::vector<Place<Pose>> trajectory;
-    std::vector<FilteredPlace<Pose>> filtered;
+    std::vector<LoggedPose<Pose>> log;
+    std::vector<std::vector<Observation>> logged_observations;
+    std::unordered_map<std::int64_t, std::size_t> log_index;
     std::vector<PlaceClosure<Pose>> closures;
     std::vector<Observation> observations;
     std::int64_t previous = -1;
@@ -380,6 +383,7 @@ class CompactRunner {
                                     "adds a pose");
       }
       Status status = Status::Ok;
+      LoggedPose<Pose> logged;
       Pose odometry;
       Matrix information = Matrix::Zero();
       closures.clear();
@@ -426,6 +430,8 @@ class CompactRunner {
             have_odometry = true;
           } else {
             closures.push_back(PlaceClosure<Pose>{places.at(other), z, info});
+            logged.closures.push_back(
+                {log_index.at(other), z, betweenTangentCovariance<Pose>(info)});
           }
         }
         if (!have_odometry) {
@@ -433,8 +439,8 @@ class CompactRunner {
                              "--max-poses: pose " + std::to_string(step.new_pose.id) +
                                  " has no odometry from pose " + std::to_string(previous));
         }
-        filtered.back().odometry = odometry;
-        filtered.back().odometry_covariance = betweenTangentCovariance<Pose>(information);
+        logged.odometry = odometry;
+        logged.odometry_covariance = betweenTangentCovariance<Pose>(information);
         // The pose's value when introduced: the current place's estimate and the odometry.
         out.initial[step.new_pose] =
             toParameters(graph.estimate(graph.current()).compose(odometry));
@@ -461,19 +467,24 @@ class CompactRunner {
       out.peak_factor_blocks = std::max(out.peak_factor_blocks, record.result.factor_blocks);
       out.steps.push_back(record);
       places[step.new_pose.id] = graph.current();
+      log_index[step.new_pose.id] = log.size();
       ids.push_back(step.new_pose.id);
       trajectory.push_back(graph.current());
-      filtered.emplace_back();
+      log.push_back(std::move(logged));
+      logged_observations.push_back(observations);
       if (s == 0) out.initial[step.new_pose] = toParameters(graph.estimate(graph.current()));
       introduceLandmarks(graph, step, observations, out.initial);
       previous = step.new_pose.id;
     }
-    // Each pose: its place, filtered on the map's final nodes, then smoothed backward.
+    // Each pose: a node's estimate, or filtered again against the final map and smoothed.
     for (std::size_t k = 0; k < trajectory.size(); ++k) {
-      filtered[k].estimate = graph.estimate(trajectory[k]);
-      filtered[k].covariance = trajectory[k].covariance;
+      log[k].known = trajectory[k].atNode();
+      log[k].estimate = graph.estimate(trajectory[k]);
     }
-    const std::vector<Pose> smoothed = smoothPlaces(filtered);
+    const std::vector<Pose> smoothed =
+        smoothTrajectory(log, [&](std::size_t k, Pose& x, Matrix& p) {
+          correctOnLandmarks(*solver, logged_observations[k], x, p);
+        });
     for (std::size_t k = 0; k < ids.size(); ++k) {
       out.estimate[VariableKey{VariableRole::Pose, ids[k]}] = toParameters(smoothed[k]);
     }
@@ -510,6 +521,27 @@ class CompactRunner {
       return true;
     }
     return false;
+  }
+
+  // x and its covariance p corrected by the observations of mapped landmarks (their final
+  // estimates taken as exact), as CompactPoseGraph corrects the current place online.
+  static void correctOnLandmarks([[maybe_unused]] const Solver& solver,
+                                 [[maybe_unused]] const std::vector<Observation>& observations,
+                                 [[maybe_unused]] Pose& x, [[maybe_unused]] Matrix& p) {
+    if constexpr (Graph::kLandmarks) {
+      using Observed = typename Model::PointObservation;
+      for (const Observation& o : observations) {
+        const Index l = solver.template indexOf<Landmark>(o.landmark);
+        if (l == kNoIndex) continue;
+        Eigen::Matrix<double, Graph::kPointDim, Pose::kDof> j;
+        const auto e =
+            Observed::error(x, solver.template estimateAt<Landmark>(l), o.position, &j, nullptr);
+        const Matrix information =
+            positiveDefiniteInverse<Pose>(p) + j.transpose() * o.information * j;
+        x = x.retract(information.llt().solve(-(j.transpose() * (o.information * e))).eval());
+        p = positiveDefiniteInverse<Pose>(information);
+      }
+    }
   }
 
   // The initial value of each landmark the step introduces: its first sighting from the step's
