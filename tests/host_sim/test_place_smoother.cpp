@@ -67,12 +67,17 @@ Chain<Pose> makeChain(int n, double sigma, std::mt19937& rng, int closure_every 
   c.known = n / 2;
   c.measured[static_cast<std::size_t>(c.known)] = truth[static_cast<std::size_t>(c.known)];
   c.has_measurement[static_cast<std::size_t>(c.known)] = false;
-  for (int i = 8; closure_every > 0 && i < n; i += closure_every) {
-    const auto to = static_cast<std::size_t>(i);
-    const auto from = to - 5 - static_cast<std::size_t>(i % 3);
-    if (static_cast<int>(to) == c.known || static_cast<int>(from) == c.known) continue;
+  const auto close = [&](std::size_t from, std::size_t to) {
     c.closures.push_back(
         {from, to, truth[from].between(truth[to]).retract(gaussian<Pose>(rng, sigma))});
+  };
+  for (int i = 8; closure_every > 0 && i < n; i += closure_every) {
+    const auto to = static_cast<std::size_t>(i);
+    if (static_cast<int>(to) != c.known) close(to - 5 - static_cast<std::size_t>(i % 3), to);
+  }
+  // One from the known pose (a node of the compact map).
+  if (closure_every > 0 && c.known + 4 < n) {
+    close(static_cast<std::size_t>(c.known), static_cast<std::size_t>(c.known + 4));
   }
   return c;
 }

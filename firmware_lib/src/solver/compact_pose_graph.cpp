@@ -1,5 +1,7 @@
 #include "lslam/solver/compact_pose_graph.h"
 
+#include <algorithm>
+
 #include "lslam/factors/merged_measurement.h"
 #include "lslam/models/pose_slam_2d.h"
 #include "lslam/models/pose_slam_3d.h"
@@ -343,15 +345,19 @@ template <class Model>
 template <class F>
 bool CompactPoseGraph<Model>::makeRoomForNewPair(CompactStepResult& r) {
   if (roomForNewPair<F>()) return true;
-  const Index ordered = smoother_.blocksAtLastOrder();
-  if (!roomForFactor<F>() || ordered == 0 ||
+  const Index since = std::max(smoother_.blocksAtLastOrder(), room_reorder_failed_at_);
+  if (!roomForFactor<F>() || since == 0 ||
       static_cast<double>(smoother_.factorBlocks()) <
-          kRoomReorderGrowth * static_cast<double>(ordered)) {
+          kRoomReorderGrowth * static_cast<double>(since)) {
     return false;
   }
   UpdateResult u;
-  if (smoother_.reorder(&u) != Status::Ok) return false;  // (it changed nothing)
+  if (smoother_.reorder(&u) != Status::Ok) {  // no change to the estimate, factor or graph
+    room_reorder_failed_at_ = smoother_.factorBlocks();
+    return false;
+  }
   record(u, r);
+  r.reordered_for_room = true;
   return roomForNewPair<F>();
 }
 

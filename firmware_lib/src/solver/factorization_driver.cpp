@@ -63,6 +63,12 @@ Status FactorizationDriver<Graph, Factor>::refactor(Ordering& ordering, const Up
     } else {
       reorder = fresh = ordering.computeFreshOrdering(&prepared_overwritten);
     }
+    if (!reorder && plan.reorder_required) {  // no workspace for the ordering asked for
+      graph_.rollback();
+      if (prepared_overwritten) ordering.prepareOrdering();
+      r.status = Status::WorkspaceExhausted;
+      return Status::WorkspaceExhausted;
+    }
     if (!reorder) buffer = ordering.active();  // no workspace for an ordering: keep the current one
     full = reorder || plan.drop_anchor;
   }

@@ -23,6 +23,7 @@ UpdatePlan planUpdate(Graph& graph, Ordering& ordering, Relinearization& relinea
                       bool force_reorder = false) {
   UpdatePlan plan;
   plan.drop_anchor = drop_anchor;
+  plan.reorder_required = force_reorder;
   ordering.placeAddedVariablesLast();
   const Index* position_of = ordering.positionOf();
   plan.fresh_ordering = ordering.wantsFreshOrdering(graph.factors() - driver.firstNewFactor(), [&] {

@@ -8,7 +8,9 @@
 // map of its time. Here every pose is estimated again against the final map:
 //   forward:  x_k = x_{k-1} u_k, P_k = J P_{k-1} J^T + Q_k (J = Ad(u_k^-1)); each loop closure to
 //             an earlier pose s, y = x_s z with covariance J_z P_s J_z^T + R (J_z = Ad(z^-1)),
-//             updates x_k as a Kalman filter does (the map's nodes are exact); then the caller's
+//             updates x_k as a Kalman filter does, exactly so from a node (the map's nodes are
+//             exact); from a pose past the capacity the correlation of x_s and x_k (the odometry
+//             between them) is left out, which makes the update overconfident; then the caller's
 //             other measurements (landmark observations against the final landmarks);
 //   backward: G = P_k J^T P'^-1 (P' the prediction's covariance), x_k^s = x_k Exp(G Log((x_k
 //             u)^-1 x_{k+1}^s)).
@@ -32,7 +34,7 @@ struct LoggedPose {
   struct Closure {
     std::size_t from = 0;
     Pose measurement;
-    Matrix covariance = Matrix::Identity();
+    Matrix covariance = Matrix::Zero();
   };
   bool known = false;                  // a node: `estimate` is the map's
   Pose estimate;                       // a node's; the first pose's prior when it is not a node
@@ -96,7 +98,8 @@ Pass<Pose> filterAndSmooth(const std::vector<LoggedPose<Pose>>& log, const Pass<
       for (const std::size_t t : seen_later[k]) {
         for (const auto& c : log[t].closures) {
           if (c.from != k) continue;
-          // y = x_t z^-1: both perturbations pass through the inverse's Jacobian, -Ad(z).
+          // y = x_t z^-1: x_t's perturbation maps through Ad(z), z's through -Ad(z) (the
+          // inverse's Jacobian, j), so the covariance is j (P_t + R) j^T.
           Matrix j;
           const Pose back = c.measurement.inverse(&j);
           const Matrix p_t = log[t].known ? Matrix::Zero() : earlier.filtered_covariance[t];

@@ -23,8 +23,9 @@
 //    factor while the smoother has one to spare (one is kept for folds) and the live Cholesky
 //    factor fills at most kNewPairPoolShare of the block pool. At that share, a factor that has
 //    grown by kRoomReorderGrowth since its last ordering is reordered first (the incremental
-//    order fills more and more, and a full factor takes no updates that would reorder it); past
-//    that the measurement is dropped (counted in the step's result) and only localizes.
+//    order fills more and more, and once every pair is refused only folds reach the factor, which
+//    add no fill, so the growth rule never fires); past that the measurement is dropped (counted
+//    in the step's result) and only localizes.
 //
 // Every step's inputs are checked before anything changes; a rejected step changes nothing. Node
 // ids are 0, 1, 2, ... in the order they were added (the smoother's pose ids).
@@ -55,14 +56,15 @@ struct PlaceClosure {
 // What a step did.
 struct CompactStepResult {
   Status status = Status::Ok;
-  bool node_added = false;    // the step's pose became a node
-  bool relocalized = false;   // the current place moved to a loop closure's node
-  Index factors_added = 0;    // loop closures and observations on a pair not yet joined
-  Index folded = 0;           // ... merged into a factor already there
-  Index dropped = 0;          // ... that found no room (factors, landmarks or block pool)
-  Index landmarks_added = 0;  // landmarks seen for the first time
-  Index localized = 0;        // observations of mapped landmarks that corrected the place
-  Index updates = 0;          // smoother updates the step made
+  bool node_added = false;          // the step's pose became a node
+  bool relocalized = false;         // the current place moved to a loop closure's node
+  Index factors_added = 0;          // loop closures and observations on a pair not yet joined
+  Index folded = 0;                 // ... merged into a factor already there
+  Index dropped = 0;                // ... that found no room (factors, landmarks or block pool)
+  bool reordered_for_room = false;  // the factor was reordered to make room for a pair
+  Index landmarks_added = 0;        // landmarks seen for the first time
+  Index localized = 0;              // observations of mapped landmarks that corrected the place
+  Index updates = 0;                // smoother updates the step made
   std::int64_t block_products = 0;
   bool reordered = false;
 };
@@ -92,7 +94,8 @@ class CompactPoseGraph {
   // reordering stages a copy beside it, and the fill of later folds needs the rest.
   static constexpr double kNewPairPoolShare = 0.4;
   // A factor at that share is reordered for room once it has grown this much since its last
-  // ordering: lower reorders more often for less room gained each time.
+  // ordering (or since a reordering for room that failed): lower reorders more often for less
+  // room gained each time.
   static constexpr double kRoomReorderGrowth = 1.2;
 
   explicit CompactPoseGraph(Smoother<Model>& smoother) : smoother_(smoother) {}
@@ -155,6 +158,7 @@ class CompactPoseGraph {
 
   Smoother<Model>& smoother_;
   PlaceT current_;
+  Index room_reorder_failed_at_ = 0;  // the live blocks at the last failed reordering for room
 };
 
 }  // namespace lslam

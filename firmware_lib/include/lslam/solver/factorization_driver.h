@@ -29,6 +29,7 @@ struct UpdatePlan {
   bool refactor_fully = false;    // relinearize by a full refactorization in the current order
   bool fresh_ordering = false;    // reorder_now, in an ordering with this update's factors
   bool drop_anchor = false;       // the anchor leaves: every column refactorized, whatever else
+  bool reorder_required = false;  // reorder_now asked by the caller: without an ordering it fails
   // The due relinearization waits for the next reordering (relinearize_defer_products), and the
   // block products charged to that reordering's work budget once the update commits (its in-place
   // estimate the first time it waits, 0 after).

@@ -29,8 +29,8 @@
 //    problem (disablePrior: it keeps its factor slot with zero information) and, since a factor
 //    cannot be taken out of L in place, reorders and refactorizes every column, once. That update
 //    must tie the map to its priors (a prior on a mapped pose, or between factors from an added
-//    pose with a prior to the map); otherwise it is UnconstrainedVariable, as the map would float
-//    free;
+//    pose with a prior to the map); otherwise it is UnconstrainedVariable, as the map would be
+//    held by nothing;
 //  - chi2() sums the caller's factors only, never the anchor.
 // The optimum is then always that of the caller's factors alone: with priors, theirs; without,
 // theirs in the gauge of the first pose (which the anchor, at zero error there, does not move).
@@ -166,8 +166,9 @@ class Smoother {
   // An update without inputs that reorders now: every column refactorized in a fresh COLAMD order
   // (or the one prepared for the next update), the waiting candidates relinearized with them,
   // then solved as an update is. For a caller that needs the fill back (CompactPoseGraph): the
-  // incremental order fills more as the graph grows. A failure (the pool cannot hold the
-  // reordered factor beside the live one) changes nothing.
+  // incremental order fills more as the graph grows. CapacityExhausted when the pool cannot hold
+  // the reordered factor beside the live one, WorkspaceExhausted when COLAMD's workspace cannot
+  // hold the graph: nothing changed (as for a rejected update).
   [[nodiscard]] Status reorder(UpdateResult* result = nullptr);
   // Back-substitution on demand (partial per options, or full), then up to
   // SolverOptions::urgent_iterations relinearizations of urgent candidates, each solved again.
