@@ -524,22 +524,18 @@ class CompactRunner {
   }
 
   // x and its covariance p corrected by the observations of mapped landmarks (their final
-  // estimates taken as exact), as CompactPoseGraph corrects the current place online.
+  // estimates taken as exact; correctionByObservedPoint, as CompactPoseGraph corrects its place).
   static void correctOnLandmarks([[maybe_unused]] const Solver& solver,
                                  [[maybe_unused]] const std::vector<Observation>& observations,
                                  [[maybe_unused]] Pose& x, [[maybe_unused]] Matrix& p) {
     if constexpr (Graph::kLandmarks) {
-      using Observed = typename Model::PointObservation;
       for (const Observation& o : observations) {
         const Index l = solver.template indexOf<Landmark>(o.landmark);
         if (l == kNoIndex) continue;
-        Eigen::Matrix<double, Graph::kPointDim, Pose::kDof> j;
-        const auto e =
-            Observed::error(x, solver.template estimateAt<Landmark>(l), o.position, &j, nullptr);
-        const Matrix information =
-            positiveDefiniteInverse<Pose>(p) + j.transpose() * o.information * j;
-        x = x.retract(information.llt().solve(-(j.transpose() * (o.information * e))).eval());
-        p = positiveDefiniteInverse<Pose>(information);
+        const PoseCorrection<Pose> c = correctionByObservedPoint<typename Model::PointObservation>(
+            x, p, solver.template estimateAt<Landmark>(l), o.position, o.information);
+        x = x.retract(c.step);
+        p = c.covariance;
       }
     }
   }

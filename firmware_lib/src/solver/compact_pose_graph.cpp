@@ -2,7 +2,6 @@
 
 #include <algorithm>
 
-#include "lslam/factors/merged_measurement.h"
 #include "lslam/models/pose_slam_2d.h"
 #include "lslam/models/pose_slam_3d.h"
 #include "lslam/models/slam_2d.h"
@@ -281,17 +280,10 @@ template <class Model>
 void CompactPoseGraph<Model>::localizeOn(Index landmark, const Observation& o) {
   if constexpr (kLandmarks) {
     if (current_.atNode()) return;
-    using Observed = typename Model::PointObservation;
-    Eigen::Matrix<double, kPointDim, Pose::kDof> j;
-    const PointVector e =
-        Observed::error(estimate(current_), smoother_.template estimateAt<Landmark>(landmark),
-                        o.position, &j, nullptr);
-    const Matrix information =
-        positiveDefiniteInverse<Pose>(current_.covariance) + j.transpose() * o.information * j;
-    const Eigen::LLT<Matrix> llt(information);
-    const auto step = llt.solve(-(j.transpose() * (o.information * e))).eval();
-    current_ = PlaceT{current_.node, current_.offset.retract(step),
-                      positiveDefiniteInverse<Pose>(information)};
+    const PoseCorrection<Pose> c = correctionByObservedPoint<typename Model::PointObservation>(
+        estimate(current_), current_.covariance, smoother_.template estimateAt<Landmark>(landmark),
+        o.position, o.information);
+    current_ = PlaceT{current_.node, current_.offset.retract(c.step), c.covariance};
   } else {
     static_cast<void>(landmark);
     static_cast<void>(o);

@@ -30,6 +30,7 @@
 // Every step's inputs are checked before anything changes; a rejected step changes nothing. Node
 // ids are 0, 1, 2, ... in the order they were added (the smoother's pose ids).
 #include "lslam/eigen.h"
+#include "lslam/factors/merged_measurement.h"
 #include "lslam/solver/smoother.h"
 #include "lslam/status.h"
 
@@ -43,6 +44,31 @@ struct Place {
   Covariance covariance = Covariance::Zero();  // the offset's (right perturbation); 0 at a node
   bool atNode() const { return covariance.isZero(0.0); }
 };
+
+// A pose's correction by an observation z (of kind Observed, with its information) of a point
+// whose estimate is taken as exact: a Kalman update in information form, right perturbation. The
+// step is for pose.retract, or for the offset of a place at that pose (the same perturbation);
+// the covariance replaces the pose's, which must be positive definite.
+template <class Pose>
+struct PoseCorrection {
+  Eigen::Matrix<double, Pose::kDof, 1> step;
+  Eigen::Matrix<double, Pose::kDof, Pose::kDof> covariance;
+};
+
+template <class Observed, class Pose, class Point>
+PoseCorrection<Pose> correctionByObservedPoint(
+    const Pose& pose, const Eigen::Matrix<double, Pose::kDof, Pose::kDof>& covariance,
+    const Point& point, const Eigen::Matrix<double, Observed::kErrorDim, 1>& z,
+    const Eigen::Matrix<double, Observed::kErrorDim, Observed::kErrorDim>& information) {
+  using Matrix = Eigen::Matrix<double, Pose::kDof, Pose::kDof>;
+  Eigen::Matrix<double, Observed::kErrorDim, Pose::kDof> j;
+  const Eigen::Matrix<double, Observed::kErrorDim, 1> e =
+      Observed::error(pose, point, z, &j, nullptr);
+  const Matrix total = positiveDefiniteInverse<Pose>(covariance) + j.transpose() * information * j;
+  const Eigen::LLT<Matrix> llt(total);
+  return {llt.solve(-(j.transpose() * (information * e))).eval(),
+          positiveDefiniteInverse<Pose>(total)};
+}
 
 // A loop closure of a step: the pose seen (a place the caller kept from an earlier step) and
 // the measured pose of the current one in its frame, with its information.
