@@ -550,6 +550,17 @@ namespace {
 // The longest chain of columns whose structures nest (parent k + 1, one row more than it): the
 // supernodes a full factorization on an AVX host works through together (D = 3 only; the other
 // block sizes factorize the same chains column by column).
+// `poses` poses, each after the first with `loop_closures` factors to random older ones, one update
+// per pose.
+template <int D>
+void growWithLoopClosures(Harness<D>& h, Index poses, int loop_closures, std::mt19937& rng) {
+  for (Index v = 0; v < poses; ++v) {
+    std::vector<std::pair<Index, Index>> touched = h.addPose(rng);
+    if (v > 0) h.addLoopClosures(loop_closures, rng, touched);
+    REQUIRE(h.updateCompactingIfFull(1, touched) == lslam::Status::Ok);
+  }
+}
+
 template <int D>
 Index longestNestedChain(const lslam::IncrementalCholesky<D>& chol) {
   Index longest = 1;
@@ -571,17 +582,63 @@ TEST_CASE_TEMPLATE("a full refactorization through long chains of nested columns
     CAPTURE(seed);
     std::mt19937 rng(seed);
     auto h = std::make_unique<Harness<D>>();
-    for (Index v = 0; v < 60; ++v) {
-      std::vector<std::pair<Index, Index>> touched = h->addPose(rng);
-      if (v > 0) h->addLoopClosures(3, rng, touched);  // many: a dense trailing part
-      REQUIRE(h->updateCompactingIfFull(1, touched) == lslam::Status::Ok);
-    }
+    growWithLoopClosures(*h, 60, 3, rng);  // many loop closures: a dense trailing part
     h->chol.compact();
     h->refactorFully();
     checkAgainstDense(h->chol, h->source, h->variable_at);
     // Long enough to be split (chains are taken at most 8 columns at a time) at D = 3; at D = 2, 6
     // (no supernodes) long chains column by column, their length depending on the random graph.
     CHECK(longestNestedChain(h->chol) > (D == 3 ? 20 : 8));
+  }
+}
+
+TEST_CASE_TEMPLATE(
+    "a full factorization spread over many calls gives factorize()'s bits; swap exchanges two "
+    "factors and clear empties one",
+    T, D2, D3, D6) {
+  constexpr int D = T::value;
+  for (unsigned seed = 170; seed < 170 + seedCount<D>(6); ++seed) {
+    CAPTURE(seed);
+    std::mt19937 rng(seed);
+    auto grown = std::make_unique<Harness<D>>();
+    growWithLoopClosures(*grown, 50, 2, rng);
+    const Index n = grown->source.size();
+    const Index* variable_at = grown->variable_at.data();
+    const Index* position_of = grown->position_of.data();
+    // Both factorize the grown graph from empty: in one call, and a few products at a time.
+    auto once = std::make_unique<Harness<D>>();
+    once->chol.beginUpdate(n, true, variable_at);
+    REQUIRE(once->chol.factorize(grown->source, variable_at, position_of) == lslam::Status::Ok);
+    once->chol.commit();
+    auto spread = std::make_unique<Harness<D>>();
+    spread->chol.beginUpdate(n, true, variable_at);
+    REQUIRE(spread->chol.startFactorization(grown->source, variable_at, position_of) ==
+            lslam::Status::Ok);
+    int calls = 0;
+    for (bool finished = false; !finished; ++calls) {
+      REQUIRE(spread->chol.continueFactorization(40, &finished) == lslam::Status::Ok);
+      REQUIRE(calls < 100000);
+    }
+    spread->chol.commit();
+    CHECK(calls > 5);
+    CHECK(spread->chol.lastStats().block_products == once->chol.lastStats().block_products);
+    CHECK(FactorSnapshot<D>(spread->chol) == FactorSnapshot<D>(once->chol));
+    checkAgainstDense(spread->chol, grown->source, grown->variable_at);
+
+    const FactorSnapshot<D> grown_factor(grown->chol);
+    const FactorSnapshot<D> spread_factor(spread->chol);
+    grown->chol.swap(spread->chol);
+    CHECK(FactorSnapshot<D>(grown->chol) == spread_factor);
+    CHECK(FactorSnapshot<D>(spread->chol) == grown_factor);
+    spread->chol.clear();
+    CHECK(spread->chol.columns() == 0);
+    CHECK(spread->chol.poolEnd() == 0);
+    CHECK(spread->chol.liveBlocks() == 0);
+    // A cleared factor is an empty one: factorized again, the same bits.
+    spread->chol.beginUpdate(n, true, variable_at);
+    REQUIRE(spread->chol.factorize(grown->source, variable_at, position_of) == lslam::Status::Ok);
+    spread->chol.commit();
+    CHECK(FactorSnapshot<D>(spread->chol) == FactorSnapshot<D>(once->chol));
   }
 }
 

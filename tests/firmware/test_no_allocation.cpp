@@ -890,6 +890,20 @@ TEST_CASE("no heap allocation in a run with reordered updates (reorder_affected_
   CHECK(top_reordered > 0);
 }
 
+TEST_CASE("no heap allocation in a run with reorderings spread over updates") {
+  using SpreadSolver = StaticSmoother<PoseSlam2D, 400, 0, 1200, 1200 * 12, 60000, 0, 64>;
+  const SyntheticWorld world = syntheticWorld(SpreadSolver::max_poses, 22);
+  const std::vector<PoseStep> in = prepareRun(world.dataset, groundTruth(world));
+  SolverOptions options = smallWorldOptions();
+  options.spread_reorder_products = 300;
+  options.relinearize_defer_products = 1;  // relinearizations wait for the (spread) reorderings
+  auto solver = std::make_unique<SpreadSolver>(options);
+  const std::vector<UpdateResult> results = feedAllCounted(*solver, in, "spread reordering run");
+  const int swapped = countResults(results, [](const UpdateResult& r) { return r.spread_swapped; });
+  MESSAGE(swapped << " reorderings spread over updates in " << in.size() << " updates");
+  CHECK(swapped > 0);
+}
+
 TEST_CASE("no heap allocation in a run whose pool needs compactions") {
   const SyntheticWorld world = syntheticWorld(300, 60);
   const std::vector<PoseStep> in = prepareRun(world.dataset, groundTruth(world));

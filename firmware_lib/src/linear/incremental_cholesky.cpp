@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 
 #include "lower_triangular.h"
 #include "lslam/linear/block_kernels.h"
@@ -124,6 +125,16 @@ std::uint32_t IncrementalCholesky<S...>::nextMark() {
 template <int... S>
 Status IncrementalCholesky<S...>::factorize(const InformationSource<S...>& source,
                                             const Index* variable_at, const Index* position_of) {
+  const Status s = startFactorization(source, variable_at, position_of);
+  if (s != Status::Ok) return s;
+  bool finished = false;
+  return continueFactorization(std::numeric_limits<std::int64_t>::max(), &finished);
+}
+
+template <int... S>
+Status IncrementalCholesky<S...>::startFactorization(const InformationSource<S...>& source,
+                                                     const Index* variable_at,
+                                                     const Index* position_of) {
   LSLAM_ASSERT(in_update_);
   staging_variable_at_ = variable_at;
   // Symbolic: the structure of every affected column, in ascending order. A column's parent is
@@ -153,22 +164,37 @@ Status IncrementalCholesky<S...>::factorize(const InformationSource<S...>& sourc
       startColumn(a_.affected[i], source, variable_at, position_of);
     }
   }
-  bool by_supernodes = false;
-  if constexpr (kUniform && detail::kAvxForms<D>) {
-    by_supernodes = full_ && detail::cpuHasAvxFma();
-    if (by_supernodes) {
-      const Status s = factorizeBySupernodes();
-      if (s != Status::Ok) return s;
+  by_supernodes_ = false;
+  if constexpr (kUniform && detail::kAvxForms<D>) by_supernodes_ = full_ && detail::cpuHasAvxFma();
+  next_affected_ = 0;
+  stats_.columns_recomputed = affected_count_;
+  return Status::Ok;
+}
+
+// The numeric phase from the first column not yet factorized, a column (or a supernode) at a
+// time, until it has spent max_products block products or every column is done.
+template <int... S>
+Status IncrementalCholesky<S...>::continueFactorization(std::int64_t max_products, bool* finished) {
+  LSLAM_ASSERT(in_update_ && next_affected_ >= 0);
+  const std::int64_t until =
+      max_products >= std::numeric_limits<std::int64_t>::max() - stats_.block_products
+          ? std::numeric_limits<std::int64_t>::max()
+          : stats_.block_products + max_products;
+  while (next_affected_ < affected_count_ && stats_.block_products < until) {
+    if constexpr (kUniform && detail::kAvxForms<D>) {
+      if (by_supernodes_) {
+        const Status s = factorizeSupernode(&next_affected_);
+        if (s != Status::Ok) return s;
+        continue;
+      }
     }
-  }
-  for (Index i = 0; !by_supernodes && i < affected_count_; ++i) {
-    const Index k = a_.affected[i];
+    const Index k = a_.affected[next_affected_++];
     const Status s = finishColumn(k);
     if (s != Status::Ok) return s;
     scatterSlots(a_.staged_start[k], a_.staged_count[k], a_.staged_d[k], -1.0);
     if (!full_ && k < n_) scatterSlots(a_.start[k], a_.count[k], a_.d[k], 1.0);
   }
-  stats_.columns_recomputed = affected_count_;
+  *finished = next_affected_ == affected_count_;
   stats_.blocks_written = pool_end_ - pool_mark_;
   return Status::Ok;
 }
@@ -588,6 +614,27 @@ void IncrementalCholesky<S...>::rebuildChildLists() {
 }
 
 template <int... S>
+void IncrementalCholesky<S...>::clear() {
+  LSLAM_ASSERT(!in_update_);
+  n_ = 0;
+  staged_columns_ = 0;
+  pool_end_ = pool_mark_ = 0;
+  value_end_ = value_mark_ = 0;
+  live_blocks_ = 0;
+  affected_count_ = 0;
+  layout_pending_ = false;
+  a_.first_child[a_.max_columns] = kNoIndex;
+}
+
+template <int... S>
+void IncrementalCholesky<S...>::swap(IncrementalCholesky& other) {
+  LSLAM_ASSERT(!in_update_ && !other.in_update_);
+  const IncrementalCholesky kept = *this;
+  *this = other;
+  other = kept;
+}
+
+template <int... S>
 void IncrementalCholesky<S...>::compact() {
   LSLAM_ASSERT(!in_update_);
   if (layout_pending_) {
@@ -654,7 +701,7 @@ bool IncrementalCholesky<S...>::solveColumn(Index k, double tolerance, Vector& d
 // _layout, _supernodes). Not `template class`: GCC's link-time optimizer turns this file's calls
 // to members defined in another part into weak references when the class is instantiated whole,
 // and a linker pulls no archive member for a weak reference (an -flto build then fails to link:
-// undefined factorizeBySupernodes). Member by member, the references stay strong.
+// undefined factorizeSupernode). Member by member, the references stay strong.
 #define LSLAM_INSTANTIATE_CORE(...)                                                              \
   template IncrementalCholesky<__VA_ARGS__>::IncrementalCholesky(                                \
       const CholeskyArrays<__VA_ARGS__>&);                                                       \
@@ -691,6 +738,11 @@ bool IncrementalCholesky<S...>::solveColumn(Index k, double tolerance, Vector& d
   template void IncrementalCholesky<__VA_ARGS__>::unlinkChild(Index, Index);                     \
   template void IncrementalCholesky<__VA_ARGS__>::rebuildChildLists();                           \
   template void IncrementalCholesky<__VA_ARGS__>::compact();                                     \
+  template void IncrementalCholesky<__VA_ARGS__>::clear();                                       \
+  template void IncrementalCholesky<__VA_ARGS__>::swap(IncrementalCholesky&);                    \
+  template Status IncrementalCholesky<__VA_ARGS__>::startFactorization(                          \
+      const InformationSource<__VA_ARGS__>&, const Index*, const Index*);                        \
+  template Status IncrementalCholesky<__VA_ARGS__>::continueFactorization(std::int64_t, bool*);  \
   template Index IncrementalCholesky<__VA_ARGS__>::backSubstitute(Vector*, const Index*, double, \
                                                                   bool, Index*);                 \
   template void IncrementalCholesky<__VA_ARGS__>::scatterSlots(Index, Index, const Vector&,      \

@@ -22,19 +22,18 @@ constexpr Index kMaxSupernodeWidth = 8;
 
 }  // namespace
 
+// The supernode that starts at affected[*next]; *next moves past it.
 template <int... S>
-Status IncrementalCholesky<S...>::factorizeBySupernodes() {
-  for (Index i = 0; i < affected_count_;) {
-    const Index first = a_.affected[i];
-    const Index last = supernodeEnd(i);
-    for (Index m = first; m <= last; ++m) {
-      const Status s = finishColumn(m);
-      if (s != Status::Ok) return s;
-      scatterWithinSupernode(m, last);
-    }
-    scatterFromSupernode(first, last);
-    i += last - first + 1;
+Status IncrementalCholesky<S...>::factorizeSupernode(Index* next) {
+  const Index first = a_.affected[*next];
+  const Index last = supernodeEnd(*next);
+  for (Index m = first; m <= last; ++m) {
+    const Status s = finishColumn(m);
+    if (s != Status::Ok) return s;
+    scatterWithinSupernode(m, last);
   }
+  scatterFromSupernode(first, last);
+  *next += last - first + 1;
   return Status::Ok;
 }
 
@@ -116,7 +115,7 @@ void IncrementalCholesky<S...>::scatterFromSupernode(Index first, Index last) {
 }
 
 #define LSLAM_INSTANTIATE_SUPERNODES(...)                                               \
-  template Status IncrementalCholesky<__VA_ARGS__>::factorizeBySupernodes();            \
+  template Status IncrementalCholesky<__VA_ARGS__>::factorizeSupernode(Index*);         \
   template Index IncrementalCholesky<__VA_ARGS__>::supernodeEnd(Index) const;           \
   template void IncrementalCholesky<__VA_ARGS__>::scatterWithinSupernode(Index, Index); \
   template void IncrementalCholesky<__VA_ARGS__>::scatterFromSupernode(Index, Index);

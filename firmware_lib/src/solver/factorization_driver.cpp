@@ -125,6 +125,34 @@ Status FactorizationDriver<Graph, Factor>::refactor(Ordering& ordering, const Up
 }
 
 template <class Graph, class Factor>
+Status FactorizationDriver<Graph, Factor>::addCommittedFactors(Index first, Index end,
+                                                               Index new_columns,
+                                                               const Index* variable_at,
+                                                               const Index* position_of) {
+  first_new_factor_ = first;
+  end_new_factor_ = end;
+  factor_.beginUpdate(new_columns, false, variable_at);
+  const Status s = rowUpdateAndCommit(position_of, new_columns);
+  end_new_factor_ = kNoIndex;
+  return s;
+}
+
+// The update's factors as row updates of the factor (its update begun), then its commit, or its
+// rollback on failure.
+template <class Graph, class Factor>
+Status FactorizationDriver<Graph, Factor>::rowUpdateAndCommit(const Index* position_of,
+                                                              Index new_columns) {
+  Status s = addRowsOfAddedFactors(position_of, new_columns);
+  if (s == Status::Ok) s = factor_.finishRowUpdate();
+  if (s == Status::Ok) {
+    factor_.commit();
+  } else {
+    factor_.rollback();
+  }
+  return s;
+}
+
+template <class Graph, class Factor>
 Status FactorizationDriver<Graph, Factor>::factorizeWithRetry(
     Ordering& ordering, bool full, bool allow_top_reorder, Index new_columns,
     const Index* variable_at, const Index* position_of, const StagedVariables& relinearized,
@@ -179,17 +207,12 @@ Status FactorizationDriver<Graph, Factor>::factorizeOnce(Ordering& ordering, boo
                             [this](Index column) { factor_.markStructureChanged(column); });
   }
   if (!full && relinearized.count == 0 && options_.row_updates && reachesBack(position_of)) {
-    Status s = addRowsOfAddedFactors(position_of, new_columns);
-    if (s == Status::Ok) s = factor_.finishRowUpdate();
-    if (s == Status::Ok) {
-      factor_.commit();
-    } else {
-      factor_.rollback();
-    }
-    return s;
+    return rowUpdateAndCommit(position_of, new_columns);
   }
   if (!full) markAffectedColumns(position_of, relinearized);
-  if (!full && allow_top_reorder && options_.reorder_affected_top &&
+  // (Not over a prepared ordering, which it would overwrite: the update that starts a spread
+  // reordering keeps one for it.)
+  if (!full && allow_top_reorder && options_.reorder_affected_top && !ordering.prepared() &&
       factor_.affectedTopSize() - new_columns >= options_.reorder_top_min_columns) {
     const Index num_last = collectLastColumns(position_of, new_columns);
     const Status s =
@@ -249,7 +272,7 @@ bool FactorizationDriver<Graph, Factor>::reachesBack(const Index* position_of) c
 template <class Graph, class Factor>
 Index FactorizationDriver<Graph, Factor>::addedLoopClosures(const Index* position_of) const {
   Index count = 0;
-  for (Index f = first_new_factor_; f < graph_.factors(); ++f) {
+  for (Index f = first_new_factor_; f < newFactorsEnd(); ++f) {
     if (factorReachesBack(f, position_of)) ++count;
   }
   return count;
@@ -286,7 +309,7 @@ Status FactorizationDriver<Graph, Factor>::addRowsOfAddedFactors(const Index* po
   Whitened whitened[2];
   int pending = 0;  // reaching-back factors whitened, waiting for a partner
   Index next_seed = 0;
-  for (Index f = first_new_factor_; f < graph_.factors(); ++f) {
+  for (Index f = first_new_factor_; f < newFactorsEnd(); ++f) {
     if (next_seed < num_seeds && a_.last_list[next_seed] == f) {  // rotated in already
       ++next_seed;
       continue;
@@ -324,7 +347,7 @@ Status FactorizationDriver<Graph, Factor>::seedAddedColumns(const Index* positio
   Status s = Status::Ok;
   for (bool progress = true; progress && s == Status::Ok;) {
     progress = false;
-    for (Index f = first_new_factor_; s == Status::Ok && f < graph_.factors(); ++f) {
+    for (Index f = first_new_factor_; s == Status::Ok && f < newFactorsEnd(); ++f) {
       if (std::find(a_.last_list, a_.last_list + count, f) != a_.last_list + count) continue;
       if (!seedsColumns(f, position_of)) continue;
       a_.last_list[count++] = f;
@@ -334,7 +357,7 @@ Status FactorizationDriver<Graph, Factor>::seedAddedColumns(const Index* positio
   }
   std::sort(a_.last_list, a_.last_list + count);
   // The marks go back to zero (a rejected update included).
-  for (Index f = first_new_factor_; f < graph_.factors(); ++f) {
+  for (Index f = first_new_factor_; f < newFactorsEnd(); ++f) {
     a_.in_last[position_of[graph_.firstVariable(f)]] = 0;
     const Index second = graph_.secondVariable(f);
     if (second != kNoIndex) a_.in_last[position_of[second]] = 0;

@@ -132,6 +132,17 @@ void OrderingPolicy<Graph, Factor>::takePreparedOrdering() {
 }
 
 template <class Graph, class Factor>
+void OrderingPolicy<Graph, Factor>::adoptOrder(const Index* variable_at, const Index* position_of) {
+  const int o = other();
+  for (Index k = 0; k < graph_.variables(); ++k) {
+    a_.variable_at[o][k] = variable_at[k];
+    a_.position_of[o][k] = position_of[k];
+  }
+  ordering_prepared_ = false;
+  active_ = o;
+}
+
+template <class Graph, class Factor>
 bool OrderingPolicy<Graph, Factor>::computeFreshOrdering(bool* prepared_overwritten) {
   const int o = other();
   *prepared_overwritten = ordering_prepared_;

@@ -1,5 +1,6 @@
 #include "lslam/solver/smoother.h"
 
+#include <new>
 #include <type_traits>
 
 #include "lslam/models/pose_slam_2d.h"
@@ -99,7 +100,8 @@ void addWork(UpdateResult& into, const UpdateResult& step) {
 template <class Model>
 Smoother<Model>::Smoother(const SmootherArrays<Model>& arrays, const FactorGraphArrays& graph,
                           const FactorArrays& factor, const ColamdArrays& ordering,
-                          const IdMapArrays* ids, const SolverOptions& options)
+                          const IdMapArrays* ids, const SolverOptions& options,
+                          const SpreadArrays<Model>* spread)
     : options_(options),
       graph_(graph),
       cholesky_(withKinds(factor, graph_.variableKinds())),
@@ -111,7 +113,12 @@ Smoother<Model>::Smoother(const SmootherArrays<Model>& arrays, const FactorGraph
       validator_(arrays.held, graph_, id_maps_),
       ordering_(orderingArrays(arrays), ordering, graph_, cholesky_, options_),
       relinearization_(relinearizationArrays(arrays), graph_, cholesky_, options_),
-      driver_(factorizationArrays(arrays), graph_, cholesky_, options_) {}
+      driver_(factorizationArrays(arrays), graph_, cholesky_, options_) {
+  if (spread != nullptr) {
+    spare_ = new (spare_storage_) Factor(withKinds(spread->factor, graph_.variableKinds()));
+    spread_ = new (spread_storage_) Spread(spread->reordering, graph_, *spare_, options_);
+  }
+}
 
 template <class Model>
 Status Smoother<Model>::update(const Variable* variables, Index num_variables,
@@ -170,8 +177,76 @@ Status Smoother<Model>::update(const Variable* variables, Index num_variables,
   r.factors_added = graph_.factors() - driver_.firstNewFactor();
   LSLAM_DEBUG_ASSERT(!(plan.prepare_ordering && r.reordered));
   if (plan.prepare_ordering) r.ordering_prepared = ordering_.prepareOrdering();
+  stepSpread(plan, r);
   if (options_.solve_after_update) solve(false, &r);
   return Status::Ok;
+}
+
+template <class Model>
+void Smoother<Model>::stepSpread(const UpdatePlan& plan, UpdateResult& r) {
+  if (spread_ == nullptr) return;
+  if (r.reordered) spread_failed_ = false;  // a reordering in one update came after a failure
+  if (plan.abandon_spread || r.variables_relinearized > 0 || r.refactored_fully) {
+    r.spread_abandoned = spreadActive();
+    // Given up for a relinearization, not for a reordering done here: the next runs in one update.
+    spread_failed_ = spread_failed_ || (r.spread_abandoned && !r.reordered);
+    abandonSpread();
+    return;
+  }
+  if (plan.start_spread) {
+    // The prepared ordering, and the candidates a reordering would relinearize.
+    ordering_.takePreparedOrdering();
+    graph_.beginUpdate();
+    const Index count = relinearization_.stageCandidates(CandidateRange::PastThreshold, delta_, 0);
+    graph_.rollback();
+    const Status s = spread_->start(ordering_.otherVariableAt(), ordering_.otherPositionOf(),
+                                    relinearization_.staged(), count, delta_);
+    ordering_.forgetPrepared();
+    r.spread_started = s == Status::Ok;
+    spread_failed_ = s != Status::Ok;
+    // Each update takes an equal share of the refactorization (the last one's, scaled by the
+    // growth since), over at most kSpreadUpdates updates.
+    const FullRefactorizationCost& last = driver_.lastFull();
+    const double predicted = static_cast<double>(last.products) *
+                             static_cast<double>(cholesky_.liveBlocks()) /
+                             static_cast<double>(std::max<Index>(last.blocks, 1));
+    spread_share_ = std::max(options_.spread_reorder_products,
+                             static_cast<std::int64_t>(predicted / kSpreadUpdates));
+    return;
+  }
+  if (!spread_->active()) return;
+  if (!spread_->advance(spread_share_)) {
+    r.spread_abandoned = true;
+    spread_failed_ = true;
+    return;
+  }
+  r.spread_products = spread_->lastProducts();
+  if (spread_->ready()) swapInSpread(r);
+}
+
+// The spread reordering's factor replaces the live one: its points and its order become the
+// solver's, as after a reordering done in one update.
+template <class Model>
+void Smoother<Model>::swapInSpread(UpdateResult& r) {
+  graph_.beginUpdate();
+  spread_->stageRelinearization();
+  graph_.commit();
+  cholesky_.swap(*spare_);
+  ordering_.adoptOrder(spread_->variableAt(), spread_->positionOf());
+  const FactorizationStats& built = spread_->buildStats();
+  ordering_.noteFactorization(true, true, built, 0);
+  driver_.noteFullRefactorization(built.block_products, spread_->buildBlocks());
+  for (Index i = 0; i < spread_->relinearizedCount(); ++i) {
+    delta_[spread_->relinearized()[i]].setZero();
+  }
+  cholesky_.loadSolution(delta_, variableAt());
+  relinearization_.noteUpdate(true, false, delta_);
+  r.reordered = true;
+  r.refactored_fully = true;
+  r.spread_swapped = true;
+  r.variables_relinearized += spread_->relinearizedCount();
+  r.factor_blocks = cholesky_.liveBlocks();
+  spread_->finish();
 }
 
 template <class Model>
@@ -207,6 +282,7 @@ Status Smoother<Model>::addFolded(const Measurement& factor, Index into, UpdateR
       graph_.template foldNewestFactor<F>(into, z, information);
     }
   });
+  abandonSpread();  // the folded factor changed
   return Status::Ok;
 }
 
@@ -241,8 +317,12 @@ void Smoother<Model>::addInputs(const Variable* variables, Index num_variables,
 // See detail::planUpdate (update_steps.h).
 template <class Model>
 UpdatePlan Smoother<Model>::planUpdate(Index new_variables, bool drop_anchor, bool force_reorder) {
+  detail::SpreadState spread;
+  spread.available = spread_ != nullptr && !spread_failed_;
+  spread.active = spreadActive();
+  spread.above_products = options_.spread_reorder_products;
   return detail::planUpdate(graph_, ordering_, relinearization_, driver_, delta_, new_variables,
-                            drop_anchor, force_reorder);
+                            drop_anchor, force_reorder, spread);
 }
 
 // See detail::refactorAndRestart (update_steps.h).
@@ -287,10 +367,15 @@ void Smoother<Model>::backSubstitute(bool full, UpdateResult* result) {
 
 template <class Model>
 Status Smoother<Model>::relinearizeCandidates(UpdateResult& result) {
+  if (spreadActive()) {  // the candidates wait for the spread reordering (see planUpdate)
+    result.relinearization_deferred = true;
+    return Status::Ok;
+  }
   graph_.beginUpdate();
   driver_.beginStaging();
   const UpdatePlan plan = planUpdate(0, false);
-  if (plan.relinearization_deferred) {
+  if (plan.relinearization_deferred || plan.start_spread) {
+    // (A spread reordering starts with the next update, and relinearizes.)
     // Nothing to factorize: the wait is counted, and charged, by updates alone.
     graph_.rollback();
     result.relinearization_deferred = true;
@@ -317,6 +402,7 @@ Status Smoother<Model>::reorder(UpdateResult* result) {
     r.status = s;
     return s;
   }
+  abandonSpread();
   relinearization_.noteUpdate(plan.relinearize_now, plan.relinearization_deferred, delta_);
   if (options_.solve_after_update) solve(false, &r);
   return Status::Ok;
@@ -331,6 +417,7 @@ Status Smoother<Model>::optimize(Index max_iterations, double tolerance, UpdateR
     r.status = Status::InvalidArgument;
     return Status::InvalidArgument;
   }
+  abandonSpread();  // it relinearizes
   solve(true, nullptr);
   for (Index it = 0; it < max_iterations; ++it) {
     graph_.beginUpdate();

@@ -17,10 +17,19 @@ namespace detail {
 // relinearize_defer_products both ways waits for the next reordering (defersRelinearization). An
 // update that drops the anchor reorders now, a full refactorization: a factor cannot be taken out
 // of L in place; so does one that the caller asks to (force_reorder).
+// With a spread reordering (SpreadReordering): a reordering dearer than its bar starts one
+// instead, and while one runs an update neither reorders nor relinearizes, unless it must reorder
+// at once (the anchor leaves, a burst, the caller asks), which abandons it.
+struct SpreadState {
+  bool available = false;
+  bool active = false;
+  std::int64_t above_products = 0;  // SolverOptions::spread_reorder_products
+};
+
 template <class Graph, class Ordering, class Relinearization, class Driver, class Vector>
 UpdatePlan planUpdate(Graph& graph, Ordering& ordering, Relinearization& relinearization,
                       Driver& driver, const Vector* delta, Index new_variables, bool drop_anchor,
-                      bool force_reorder = false) {
+                      bool force_reorder = false, const SpreadState& spread = SpreadState{}) {
   UpdatePlan plan;
   plan.drop_anchor = drop_anchor;
   plan.reorder_required = force_reorder;
@@ -36,6 +45,22 @@ UpdatePlan planUpdate(Graph& graph, Ordering& ordering, Relinearization& relinea
                           !force_reorder &&
                           ordering.preparesOrderingAhead(driver.lastFull().products);
   plan.reorder_now = (ordering_stale || drop_anchor) && !plan.prepare_ordering;
+  const bool at_once = force_reorder || drop_anchor || plan.fresh_ordering;
+  // A spread reordering in progress: the update only adds its inputs. The candidates wait for the
+  // next reordering (a relinearization here would abandon the build, and on the maps that spread
+  // one it costs about a refactorization: the worst step the spreading is for).
+  if (spread.active && !at_once) {
+    plan.reorder_now = false;
+    plan.prepare_ordering = false;
+    return plan;
+  }
+  plan.abandon_spread = spread.active;
+  if (spread.available && !spread.active && plan.reorder_now && prepared && !at_once &&
+      spread.above_products > 0 && driver.lastFull().products > spread.above_products) {
+    plan.reorder_now = false;
+    plan.start_spread = true;
+    return plan;
+  }
   plan.relinearize_now = relinearization.due(plan.reorder_now);
   // Outside a reordering only the candidates past the partial bar (see relinearize_partial_...).
   plan.relinearized = plan.relinearize_now ? relinearization.stageCandidates(

@@ -162,6 +162,14 @@ class IncrementalCholesky {
   // of d (L d = eta). variable_at[k] is the variable at column k, position_of its inverse.
   [[nodiscard]] Status factorize(const InformationSource<S...>& source, const Index* variable_at,
                                  const Index* position_of);
+  // factorize() in two phases, so that the numeric one can be spread over several calls (a
+  // reordered factor built beside the live one, see SpreadReordering): the symbolic phase and the
+  // assembly of Lambda (the only reads of `source`), then the columns in order, a column (or a
+  // supernode) at a time, until max_products block products are spent or every column is done
+  // (*finished). The update stays open in between; commit() or rollback() ends it.
+  [[nodiscard]] Status startFactorization(const InformationSource<S...>& source,
+                                          const Index* variable_at, const Index* position_of);
+  [[nodiscard]] Status continueFactorization(std::int64_t max_products, bool* finished);
   void commit();
   void rollback();
   // What factorize() would cost for the columns marked so far: the block products of recomputing
@@ -216,6 +224,10 @@ class IncrementalCholesky {
 
   // Moves the live columns to the front of the pool (no update may be in progress).
   void compact();
+  // Forgets every column: the factor of an empty problem (no update may be in progress).
+  void clear();
+  // Exchanges the two factors' columns, storage and state (neither in an update).
+  void swap(IncrementalCholesky& other);
 
   // Solves L^T x = d for the variables' x = delta[variable_at[k]], from the root down. Partial
   // (full == false): a subtree is entered only when its parent's x, or any x its column refers
@@ -300,7 +312,7 @@ class IncrementalCholesky {
                           const Index* position_of);
   [[nodiscard]] Status finishColumn(Index k);
   void scatter(const Index* rows, const Block* blocks, Index size, const Vector& d, double sign);
-  [[nodiscard]] Status factorizeBySupernodes();
+  [[nodiscard]] Status factorizeSupernode(Index* next);
   Index supernodeEnd(Index i) const;
   void scatterWithinSupernode(Index column, Index last);
   void scatterFromSupernode(Index first, Index last);
@@ -409,6 +421,8 @@ class IncrementalCholesky {
   bool full_ = false;
   bool keep_structures_ = false;  // full_ in the live order: see keepUnchangedStructures()
   bool reordered_ = false;
+  bool by_supernodes_ = false;  // the numeric phase runs by supernodes (see factorizeSupernode)
+  Index next_affected_ = 0;     // the numeric phase's next column, in `affected`
   Index top_size_ = 0;          // |A| of a reordered update
   Index top_base_ = 0;          // the first reordered position of A
   bool top_collected_ = false;  // affectedTopSize() has filled `affected` in this update

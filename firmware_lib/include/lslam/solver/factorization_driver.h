@@ -30,6 +30,8 @@ struct UpdatePlan {
   bool fresh_ordering = false;    // reorder_now, in an ordering with this update's factors
   bool drop_anchor = false;       // the anchor leaves: every column refactorized, whatever else
   bool reorder_required = false;  // reorder_now asked by the caller: without an ordering it fails
+  bool start_spread = false;      // the reordering is spread over the next updates instead
+  bool abandon_spread = false;    // a spread reordering in progress ends (this one reorders now)
   // The due relinearization waits for the next reordering (relinearize_defer_products), and the
   // block products charged to that reordering's work budget once the update commits (its in-place
   // estimate the first time it waits, 0 after).
@@ -60,7 +62,10 @@ class FactorizationDriver {
                       const SolverOptions& options);
 
   // The graph's update has begun: the factors from here on are the update's.
-  void beginStaging() { first_new_factor_ = graph_.factors(); }
+  void beginStaging() {
+    first_new_factor_ = graph_.factors();
+    end_new_factor_ = kNoIndex;
+  }
   Index firstNewFactor() const { return first_new_factor_; }
   // The factors of this update that reach back before the newest committed pose.
   Index addedLoopClosures(const Index* position_of) const;
@@ -74,6 +79,18 @@ class FactorizationDriver {
   // first if the plan says so (the prepared ordering, unless the plan wants a fresh one with this
   // update's factors); commits the graph and the factor, and activates the order they are in, or
   // rolls the graph back. positions_moved: the variables changed positions (a reordering).
+  // Rotates the committed factors [first, end) into the factor, new_columns added columns last
+  // (variable_at / position_of: the factor's order, those columns included): an update of the
+  // factor alone, committed, or rolled back on failure. A spread reordering's catching up.
+  [[nodiscard]] Status addCommittedFactors(Index first, Index end, Index new_columns,
+                                           const Index* variable_at, const Index* position_of);
+  // The last full refactorization, when one was done elsewhere (a spread reordering): its block
+  // products and the blocks of the factor it made.
+  void noteFullRefactorization(std::int64_t products, Index blocks) {
+    last_full_.products = products;
+    last_full_.blocks = blocks;
+  }
+
   [[nodiscard]] Status refactor(Ordering& ordering, const UpdatePlan& plan,
                                 const StagedVariables& relinearized, Index new_poses,
                                 bool allow_reorder, bool* positions_moved, UpdateResult& result);
@@ -94,14 +111,18 @@ class FactorizationDriver {
   // (a column once per factor that holds it).
   template <class Visit>
   void visitAddedFactorColumns(const Index* position_of, Visit visit) const {
-    for (Index f = first_new_factor_; f < graph_.factors(); ++f) {
+    for (Index f = first_new_factor_; f < newFactorsEnd(); ++f) {
       visit(position_of[graph_.firstVariable(f)]);
       const Index second = graph_.secondVariable(f);
       if (second != kNoIndex) visit(position_of[second]);
     }
   }
   bool factorReachesBack(Index f, const Index* position_of) const;
+  Index newFactorsEnd() const {
+    return end_new_factor_ == kNoIndex ? graph_.factors() : end_new_factor_;
+  }
   [[nodiscard]] Status addRowsOfAddedFactors(const Index* position_of, Index new_columns);
+  [[nodiscard]] Status rowUpdateAndCommit(const Index* position_of, Index new_columns);
   [[nodiscard]] Status seedAddedColumns(const Index* position_of, Index* num_seeds);
   bool seedsColumns(Index f, const Index* position_of);
   [[nodiscard]] Status addRowsAlone(Index f, const Index* position_of);
@@ -111,6 +132,7 @@ class FactorizationDriver {
   Factor& factor_;
   const SolverOptions& options_;
   Index first_new_factor_ = 0;
+  Index end_new_factor_ = kNoIndex;  // kNoIndex: the graph's factors end the update's
   FullRefactorizationCost last_full_;
   Index largest_staging_ = 0;  // the most pool blocks an update other than a full one staged
 };

@@ -81,6 +81,8 @@ class OrderingPolicy {
   bool computeFreshOrdering(bool* prepared_overwritten);
   // The prepared ordering was applied or overwritten.
   void forgetPrepared() { ordering_prepared_ = false; }
+  // An order of every variable built elsewhere (a spread reordering) becomes the active one.
+  void adoptOrder(const Index* variable_at, const Index* position_of);
 
  private:
   Status computeOrdering(Index* variable_at, Index* position_of);

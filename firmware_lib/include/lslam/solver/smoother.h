@@ -59,6 +59,7 @@
 #include "lslam/solver/ordering_policy.h"
 #include "lslam/solver/relinearization_policy.h"
 #include "lslam/solver/solver_options.h"
+#include "lslam/solver/spread_reordering.h"
 #include "lslam/solver/update_result.h"
 
 namespace lslam {
@@ -128,6 +129,14 @@ struct SmootherArrays {
   std::uint8_t* held = nullptr;     // ModelUpdateValidator: max_variables + 1 flags
 };
 
+// The memory of a spread reordering (SolverOptions::spread_reorder_products): a second factor of
+// the live one's capacities and the unit's arrays (SpreadReorderingArrays).
+template <class Model>
+struct SpreadArrays {
+  typename detail::CholeskyTypesOf<ModelBlockSizes<Model>>::Arrays factor;
+  SpreadReorderingArrays<typename SmootherArrays<Model>::Vector> reordering;
+};
+
 template <class Model>
 class Smoother {
  public:
@@ -143,9 +152,10 @@ class Smoother {
 
   // ids: one map per variable kind (kKinds of them). The factor's variable_kind is set here to the
   // graph's kinds.
+  // `spread`: the memory of a spread reordering, or none (reorderings then run in one update).
   Smoother(const SmootherArrays<Model>& arrays, const FactorGraphArrays& graph,
            const FactorArrays& factor, const ColamdArrays& ordering, const IdMapArrays* ids,
-           const SolverOptions& options);
+           const SolverOptions& options, const SpreadArrays<Model>* spread = nullptr);
   Smoother(const Smoother&) = delete;
   Smoother& operator=(const Smoother&) = delete;
 
@@ -233,6 +243,14 @@ class Smoother {
   void backSubstitute(bool full, UpdateResult* result);
   // An update without inputs that relinearizes the due candidates.
   Status relinearizeCandidates(UpdateResult& result);
+  // The spread reordering after a committed update (see SpreadReordering): started, advanced,
+  // swapped in, or abandoned as the plan says.
+  void stepSpread(const UpdatePlan& plan, UpdateResult& result);
+  void swapInSpread(UpdateResult& result);
+  bool spreadActive() const { return spread_ != nullptr && spread_->active(); }
+  void abandonSpread() {
+    if (spreadActive()) spread_->finish();
+  }
 
   // The parts (the units below hold references to them: declared first).
   SolverOptions options_;
@@ -250,14 +268,71 @@ class Smoother {
   OrderingPolicy<Graph, Factor> ordering_;
   RelinearizationPolicy<Graph, Factor> relinearization_;
   FactorizationDriver<Graph, Factor> driver_;
+  // The spread reordering and its second factor, built in place when the memory is given.
+  using Spread = SpreadReordering<Graph, Factor>;
+  // The updates a spread reordering's numeric phase takes at most: beyond, each takes a larger
+  // share (a longer build lets the live factor fill more, and leaves more to catch up).
+  static constexpr std::int64_t kSpreadUpdates = 16;
+  Factor* spare_ = nullptr;
+  Spread* spread_ = nullptr;
+  std::int64_t spread_share_ = 0;  // the block products of each update's share of the build
+  // The last spread reordering failed or was abandoned: the next reordering runs in one update.
+  bool spread_failed_ = false;
+  alignas(Factor) unsigned char spare_storage_[sizeof(Factor)];
+  alignas(Spread) unsigned char spread_storage_[sizeof(Spread)];
 };
 
 namespace detail {
 
+// The memory of a spread reordering (SpreadArrays): a second factor of the live one's capacities,
+// the unit's arrays, and the updates a reordering may take (MaxUpdates); MaxUpdates 0: none.
+template <class Model, Index MaxVariables, Index MaxFactorBlocks, Index MaxFactorBlockValues,
+          Index MaxUpdates>
+class SpreadStorage {
+  using Vector = typename SmootherArrays<Model>::Vector;
+
+ public:
+  const SpreadArrays<Model>* arrays() {
+    SpreadArrays<Model>& a = arrays_;
+    a.factor = factor_storage_.arrays();
+    SpreadReorderingArrays<Vector>& r = a.reordering;
+    r.position_of = position_of_;
+    r.variable_at = variable_at_;
+    r.relinearized = relinearized_;
+    r.relinearized_by = relinearized_by_;
+    r.max_updates = MaxUpdates;
+    r.first_factor = first_factor_;
+    r.first_variable = first_variable_;
+    r.driver.last_list = last_list_;
+    r.driver.in_last = in_last_;
+    return &arrays_;
+  }
+
+ private:
+  StaticCholeskyStorageFor<ModelBlockSizes<Model>, MaxVariables, MaxFactorBlocks,
+                           MaxFactorBlockValues>
+      factor_storage_;
+  Index position_of_[MaxVariables];
+  Index variable_at_[MaxVariables];
+  Index relinearized_[MaxVariables];
+  Vector relinearized_by_[MaxVariables];
+  Index first_factor_[MaxUpdates + 1];
+  Index first_variable_[MaxUpdates + 1];
+  Index last_list_[MaxVariables];
+  std::uint8_t in_last_[MaxVariables];
+  SpreadArrays<Model> arrays_;
+};
+
+template <class Model, Index MaxVariables, Index MaxFactorBlocks, Index MaxFactorBlockValues>
+class SpreadStorage<Model, MaxVariables, MaxFactorBlocks, MaxFactorBlockValues, 0> {
+ public:
+  const SpreadArrays<Model>* arrays() { return nullptr; }
+};
+
 // The memory of a smoother, a base class so that it is built before the smoother that points into
 // it.
 template <class Model, Index MaxPoses, Index MaxLandmarks, Index MaxFactors, Index MaxFactorValues,
-          Index MaxFactorBlocks, Index MaxFactorBlockValues>
+          Index MaxFactorBlocks, Index MaxFactorBlockValues, Index MaxSpreadUpdates>
 class SmootherStorage {
  protected:
   static constexpr Index kMaxVariables = MaxPoses + MaxLandmarks;
@@ -269,6 +344,8 @@ class SmootherStorage {
                            MaxFactorBlockValues>
       factor_storage_;
   StaticColamdStorage<2 * MaxFactors, MaxFactors, kMaxVariables> ordering_storage_;
+  SpreadStorage<Model, kMaxVariables, MaxFactorBlocks, MaxFactorBlockValues, MaxSpreadUpdates>
+      spread_storage_;
   StaticIdMapStorage<MaxPoses> pose_id_storage_;
   StaticIdMapStorage<(MaxLandmarks > 0 ? MaxLandmarks : 1)> landmark_id_storage_;
   Index position_of_[2][kMaxVariables];
@@ -320,15 +397,18 @@ class SmootherStorage {
 // landmark observation 6, a 3D one 12); MaxFactorBlocks blocks for the Cholesky factor (the live
 // factor plus room for the columns one update rewrites; leave about twice the expected fill) and
 // MaxFactorBlockValues doubles for their values (a block of rows r and columns c takes r * c:
-// MaxFactorBlocks * kMax^2 always suffices).
+// MaxFactorBlocks * kMax^2 always suffices). MaxSpreadUpdates > 0: a second factor of the same
+// pool for reorderings spread over at most that many updates (SolverOptions::
+// spread_reorder_products), which about doubles the factor's memory.
 template <class Model, Index MaxPoses, Index MaxLandmarks, Index MaxFactors, Index MaxFactorValues,
-          Index MaxFactorBlocks, Index MaxFactorBlockValues>
+          Index MaxFactorBlocks, Index MaxFactorBlockValues, Index MaxSpreadUpdates = 0>
 class StaticSmoother
     : private detail::SmootherStorage<Model, MaxPoses, MaxLandmarks, MaxFactors, MaxFactorValues,
-                                      MaxFactorBlocks, MaxFactorBlockValues>,
+                                      MaxFactorBlocks, MaxFactorBlockValues, MaxSpreadUpdates>,
       public Smoother<Model> {
-  using Storage = detail::SmootherStorage<Model, MaxPoses, MaxLandmarks, MaxFactors,
-                                          MaxFactorValues, MaxFactorBlocks, MaxFactorBlockValues>;
+  using Storage =
+      detail::SmootherStorage<Model, MaxPoses, MaxLandmarks, MaxFactors, MaxFactorValues,
+                              MaxFactorBlocks, MaxFactorBlockValues, MaxSpreadUpdates>;
 
  public:
   static constexpr Index max_poses = MaxPoses;
@@ -342,7 +422,7 @@ class StaticSmoother
       : Storage(),
         Smoother<Model>(Storage::smootherArrays(), Storage::graph_storage_.arrays(),
                         Storage::factor_storage_.arrays(), Storage::ordering_storage_.arrays(),
-                        Storage::idArrays(), options) {}
+                        Storage::idArrays(), options, Storage::spread_storage_.arrays()) {}
 };
 
 }  // namespace lslam

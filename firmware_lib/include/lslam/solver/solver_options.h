@@ -127,6 +127,13 @@ struct SolverOptions {
   // reordering is too dear for one update depends on the platform's step budget (a block product
   // is ~5 ns on the host, ~100 instructions on the Cortex-M7), so the default splits them all.
   std::int64_t prepare_ordering_min_products = 0;
+  // A reordering whose full refactorization would take more block products than this (the last
+  // one's count) is spread over several updates when the smoother has the memory of a second
+  // factor (SpreadReordering): the live factor keeps serving while the reordered one is built in
+  // steps of this many products, then takes the factors added meanwhile by row updates and
+  // replaces it. It trades one more factor's memory and the replayed row updates for a worst step
+  // of about this size. 0: never.
+  std::int64_t spread_reorder_products = 0;
   // Never reorder graphs smaller than this (chronological order is optimal for a chain).
   Index reorder_min_variables = 50;
   // Information of the prior that anchors the very first pose when the caller gives none; it

@@ -25,6 +25,10 @@ struct UpdateResult {
   bool relinearization_deferred = false;    // due candidates wait for the next reordering
   std::int64_t relinearization_charge = 0;  // block products the wait charged to the ordering's
                                             // work budget (its first update only)
+  bool spread_started = false;              // a reordering spread over the next updates began
+  bool spread_abandoned = false;            // ...was given up (the live factor serves on)
+  bool spread_swapped = false;              // ...or replaced the live factor here
+  std::int64_t spread_products = 0;         // block products the spread reordering spent here
   Index factor_blocks = 0;                  // nonzero blocks of L after the call
   Index iterations = 0;  // optimize(): Gauss-Newton iterations; solve(): urgent iterations
 };
