@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -33,6 +34,11 @@
 
 namespace {
 
+// A reordering dearer than this many block products (about 30 ms here) is spread over several
+// updates (SolverOptions::spread_reorder_products), on files whose batch factorization is dearer:
+// their worst step against a second factor's memory.
+constexpr std::int64_t kSpreadReorderProducts = 12'000'000;
+
 using namespace lslam::sim;
 
 constexpr const char* kUsage =
@@ -49,6 +55,7 @@ constexpr const char* kUsage =
     "                 [--relinearize-full-cost RATIO] [--order-in-one-update]\n"
     "                 [--prepare-min-products N]\n"
     "                 [--relinearize-defer PRODUCTS] [--relinearize-defer-updates N]\n"
+    "                 [--spread-reorder PRODUCTS]\n"
     "                 [--reorder-top] [--no-row-updates]\n"
     "                 [--factor-blocks N] [--max-poses N] [--no-batch]\n"
     "       lslam-sim simulate WORLD OUT.g2o [--steps N] [--seed S] [parameters]\n"
@@ -80,17 +87,27 @@ long peakRssKb() {
   return usage.ru_maxrss;
 }
 
+// A spread reordering's part in a step: started, its block products spent, swapped in or
+// abandoned (empty: none).
+std::string spreadColumn(const lslam::UpdateResult& r) {
+  if (r.spread_started) return "started";
+  if (r.spread_abandoned) return "abandoned";
+  if (r.spread_swapped) return "swapped:" + std::to_string(r.spread_products);
+  if (r.spread_products > 0) return std::to_string(r.spread_products);
+  return "";
+}
+
 void writeCsv(const std::string& path, const std::vector<StepRecord>& steps) {
   std::ofstream f(path);
   if (!f) throw std::runtime_error("cannot write " + path);
   f << "step,kind,microseconds,columns_refactored,variables_solved,variables_relinearized,"
-       "reordered,factor_blocks,solve_microseconds,block_products\n";
+       "reordered,factor_blocks,solve_microseconds,block_products,spread\n";
   for (const StepRecord& s : steps) {
     f << s.index << ',' << stepKindName(s.kind) << ',' << s.microseconds << ','
       << s.result.columns_refactored << ',' << s.result.variables_solved << ','
       << s.result.variables_relinearized << ',' << (s.result.reordered ? 1 : 0) << ','
       << s.result.factor_blocks << ',' << s.solve_microseconds << ',' << s.result.block_products
-      << '\n';
+      << ',' << spreadColumn(s.result) << '\n';
   }
 }
 
@@ -358,6 +375,7 @@ int run(const std::vector<std::string>& argv, const RunArgs& args) {
   const ModelDataset model = readModelDataset(args.dataset);
   RunArgs model_args;
   model_args.solver = defaultModelOptions(model);
+  model_args.solver.spread_reorder_products = kSpreadReorderProducts;
   if (const auto error = parseRunArgs(argv, model_args)) return usageError(*error);
   return runModel(model_args, model);
 }

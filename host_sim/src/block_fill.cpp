@@ -1,4 +1,4 @@
-// The block fill of a dataset's batch Cholesky factor (model_run.h, batchFactorBlocks).
+// The block fill of a dataset's batch Cholesky factor (model_run.h, batchFactorFill).
 #include <algorithm>
 #include <cstdint>
 #include <unordered_map>
@@ -10,7 +10,7 @@
 
 namespace lslam::sim {
 
-std::int64_t batchFactorBlocks(const ModelDataset& d) {
+BatchFill batchFactorFill(const ModelDataset& d) {
   // Variables in order of first appearance in a factor; one COLAMD row per factor.
   std::unordered_map<VariableKey, int, VariableKeyHash> index;
   std::vector<std::vector<int>> col_rows;
@@ -32,7 +32,7 @@ std::int64_t batchFactorBlocks(const ModelDataset& d) {
     ++n_row;
   }
   const std::size_t n = col_rows.size();
-  if (n == 0) return 0;
+  if (n == 0) return BatchFill{};
   const std::vector<int> perm = batch_detail::colamdOrdering(n_row, col_rows, "batchFactorBlocks");
   std::vector<int> position(n);
   for (std::size_t p = 0; p < n; ++p)
@@ -66,6 +66,7 @@ std::int64_t batchFactorBlocks(const ModelDataset& d) {
     }
   }
   std::int64_t blocks = static_cast<std::int64_t>(n);  // the diagonal
+  std::vector<std::int64_t> column_count(n, 1);
   std::vector<std::size_t> mark(n, n);
   for (std::size_t i = 0; i < n; ++i) {
     mark[i] = i;
@@ -73,11 +74,19 @@ std::int64_t batchFactorBlocks(const ModelDataset& d) {
       while (k != -1 && mark[static_cast<std::size_t>(k)] != i) {
         mark[static_cast<std::size_t>(k)] = i;
         ++blocks;
+        ++column_count[static_cast<std::size_t>(k)];
         k = parent[static_cast<std::size_t>(k)];
       }
     }
   }
-  return blocks;
+  // A column of s blocks sends s (s - 1) / 2 block products to the later ones.
+  std::int64_t products = 0;
+  for (const std::int64_t count : column_count) products += count * (count - 1) / 2;
+  return BatchFill{blocks, products};
+}
+
+std::int64_t batchFactorBlocks(const ModelDataset& d) {
+  return batchFactorFill(d).blocks;
 }
 
 }  // namespace lslam::sim

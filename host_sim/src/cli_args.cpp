@@ -204,6 +204,7 @@ std::optional<std::string> parseRunArgs(const std::vector<std::string>& argv, Ru
       path("--plot", args.plot),
       integer("--prepare-min-products", so.prepare_ordering_min_products, 0, "an integer >= 0"),
       integer("--relinearize-defer", so.relinearize_defer_products, 0, "an integer >= 0"),
+      integer("--spread-reorder", so.spread_reorder_products, 0, "an integer >= 0"),
       integer("--relinearize-defer-updates", so.relinearize_defer_updates, 0,
               "an integer in 0..2147483647"),
       real("--relinearize-threshold", so.relinearize_threshold),

@@ -25,6 +25,9 @@ namespace lslam::sim {
 
 namespace {
 
+// The updates a spread reordering may take before it is given up.
+constexpr Index kSpreadReorderUpdates = 256;
+
 // ---- Values between the host's parameters and the firmware's types --------------------------
 
 template <class V>
@@ -215,7 +218,8 @@ class Runner {
     out.gauge_note = checkFixed(d_, out.anchor);
     SolverOptions solver_options = options_.solver;
     solver_options.solve_after_update = false;  // solve() below, every N steps
-    out.capacities = modelCapacities(d_, options_.order, options_.factor_blocks);
+    out.capacities = modelCapacities(d_, options_.order, options_.factor_blocks,
+                                     solver_options.spread_reorder_products);
     const auto solver = std::make_unique<Solver>(out.capacities, solver_options);
     out.solver_bytes = solver->bytes();
     out.steps.reserve(steps.size());
@@ -732,7 +736,8 @@ Index blockPool(std::int64_t batch_blocks, Index variables) {
 }
 
 template <class Model>
-SmootherCapacities capacitiesOf(const ModelDataset& d, StepOrder order, Index factor_blocks) {
+SmootherCapacities capacitiesOf(const ModelDataset& d, StepOrder order, Index factor_blocks,
+                                std::int64_t spread_above_products) {
   SmootherCapacities c;
   // The anchor prior, then every step's variables and factors.
   c.factors = 1;
@@ -747,8 +752,13 @@ SmootherCapacities capacitiesOf(const ModelDataset& d, StepOrder order, Index fa
       });
     }
   }
+  const BatchFill fill = batchFactorFill(d);
   c.factor_blocks =
-      factor_blocks > 0 ? factor_blocks : blockPool(batchFactorBlocks(d), c.poses + c.landmarks);
+      factor_blocks > 0 ? factor_blocks : blockPool(fill.blocks, c.poses + c.landmarks);
+  if (spread_above_products > 0 && fill.products > spread_above_products) {
+    c.spread_factor_blocks = c.factor_blocks;
+    c.spread_updates = kSpreadReorderUpdates;
+  }
   // Mixed block sizes: every block at the largest size, as MaxFactorBlocks * kMax^2 suffices.
   using Sizes = ModelBlockSizes<Model>;
   c.factor_block_values = Sizes::kUniform ? 0 : c.factor_blocks * Sizes::kMax * Sizes::kMax;
@@ -771,9 +781,11 @@ ModelRun runModelIncremental(const ModelDataset& d, const IncrementalOptions& op
   });
 }
 
-SmootherCapacities modelCapacities(const ModelDataset& d, StepOrder order, Index factor_blocks) {
+SmootherCapacities modelCapacities(const ModelDataset& d, StepOrder order, Index factor_blocks,
+                                   std::int64_t spread_above_products) {
   return withModelOf(d, [&](auto* model) {
-    return capacitiesOf<std::remove_pointer_t<decltype(model)>>(d, order, factor_blocks);
+    return capacitiesOf<std::remove_pointer_t<decltype(model)>>(d, order, factor_blocks,
+                                                                spread_above_products);
   });
 }
 

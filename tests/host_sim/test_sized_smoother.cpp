@@ -6,6 +6,7 @@
 
 #include <Eigen/Core>
 #include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <unordered_map>
@@ -196,4 +197,62 @@ TEST_CASE("runModelIncremental: a block pool too small is named, with the option
     CHECK(what.find("block pool, 600 blocks") != std::string::npos);
     CHECK(what.find("--factor-blocks 1200") != std::string::npos);
   }
+}
+
+TEST_CASE("SizedSmoother with a spread factor: bit-identical to a StaticSmoother with one") {
+  using lslam::PoseSlam2D;
+  using Static = lslam::StaticSmoother<PoseSlam2D, 256, 0, 1024, 1024 * 12, 1 << 15, 0, 64>;
+  const sim::ModelDataset d = smallWorld(sim::WorldKind::Grid2D, 250, 3, 0);
+  lslam::SolverOptions options = sim::defaultModelOptions(d);
+  options.spread_reorder_products = 300;
+  options.relinearize_defer_products = 1;  // relinearizations wait for the (spread) reorderings
+  const auto fixed = std::make_unique<Static>(options);
+  const sim::SmootherCapacities capacities =
+      sim::modelCapacities(d, sim::StepOrder::Online, 1 << 15, options.spread_reorder_products);
+  REQUIRE(capacities.spread_factor_blocks == capacities.factor_blocks);
+  REQUIRE(capacities.spread_updates >= 64);
+  sim::SizedSmoother<PoseSlam2D> sized(capacities, options);
+  std::unordered_map<sim::VariableKey, Eigen::VectorXd, sim::VariableKeyHash> initial;
+  for (const sim::ModelVertex& v : d.vertices) initial[v.key] = v.value;
+  int swapped = 0;
+  for (const sim::ModelStep& step : sim::buildModelSteps(d, sim::StepOrder::Online)) {
+    std::vector<lslam::ModelVariableInput<PoseSlam2D>> variables;
+    variables.push_back(
+        sim::modelVariableInput<PoseSlam2D>(step.new_pose, initial.at(step.new_pose)));
+    std::vector<lslam::ModelFactorInput<PoseSlam2D>> factors;
+    for (const std::size_t k : step.factors) {
+      factors.push_back(sim::modelFactorInput<PoseSlam2D>(d, d.factors[k]));
+    }
+    lslam::UpdateResult a, b;
+    REQUIRE(fixed->update(variables.data(), 1, factors.data(), static_cast<Index>(factors.size()),
+                          &a) == Status::Ok);
+    REQUIRE(sized.update(variables.data(), 1, factors.data(), static_cast<Index>(factors.size()),
+                         &b) == Status::Ok);
+    REQUIRE(a.spread_swapped == b.spread_swapped);
+    REQUIRE(a.spread_products == b.spread_products);
+    REQUIRE(fixed->chi2() == sized.chi2());
+    swapped += b.spread_swapped ? 1 : 0;
+  }
+  CHECK(swapped >= 3);
+}
+
+TEST_CASE("modelCapacities: a second factor for spread reorderings when the batch one is dear") {
+  const sim::ModelDataset d =
+      sim::readModelDataset(std::string(LSLAM_DATA_DIR) + "/manhattan_world_500.g2o");
+  const sim::BatchFill fill = sim::batchFactorFill(d);
+  CHECK(fill.blocks == sim::batchFactorBlocks(d));
+  // At least one product per column below the diagonal, at most a dense factor's.
+  const auto n = static_cast<std::int64_t>(d.vertices.size());
+  CHECK(fill.products >= fill.blocks - n);
+  CHECK(fill.products <= n * (n - 1) / 2);
+  const sim::SmootherCapacities none = sim::modelCapacities(d, sim::StepOrder::Online);
+  CHECK(none.spread_factor_blocks == 0);
+  CHECK(none.spread_updates == 0);
+  const sim::SmootherCapacities at =
+      sim::modelCapacities(d, sim::StepOrder::Online, 0, fill.products);
+  CHECK(at == none);  // only a dearer factorization gets the second factor
+  const sim::SmootherCapacities below =
+      sim::modelCapacities(d, sim::StepOrder::Online, 0, fill.products - 1);
+  CHECK(below.spread_factor_blocks == below.factor_blocks);
+  CHECK(below.spread_updates > 0);
 }

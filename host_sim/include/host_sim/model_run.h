@@ -106,8 +106,12 @@ ModelRun runModelIncremental(const ModelDataset& d, const IncrementalOptions& op
 // landmarks and factors its steps add (and the anchor prior) and their factor values; a block pool
 // of `factor_blocks`, or if 0 a margin (its evidence in model_run.cpp) times
 // batchFactorBlocks(d) (at least the variables);
-// block values for the largest block size.
-SmootherCapacities modelCapacities(const ModelDataset& d, StepOrder order, Index factor_blocks = 0);
+// block values for the largest block size. With spread_above_products > 0
+// (SolverOptions::spread_reorder_products), a second factor of the same pool for spread
+// reorderings if the batch factorization of the whole dataset takes more block products than
+// that (a smaller one never spreads).
+SmootherCapacities modelCapacities(const ModelDataset& d, StepOrder order, Index factor_blocks = 0,
+                                   std::int64_t spread_above_products = 0);
 
 // The capacities of a compact run's solver (IncrementalOptions::max_poses): max_poses poses (at
 // most the file's), every landmark of the file, kCompactFactorsPerNode factors per pose and per
@@ -118,7 +122,13 @@ SmootherCapacities modelCapacities(const ModelDataset& d, StepOrder order, Index
 SmootherCapacities compactCapacities(const ModelDataset& d, Index max_poses, Index factor_blocks);
 
 // The nonzero blocks (variable x variable, the diagonal included) of the Cholesky factor of the
-// whole dataset's normal equations under a COLAMD ordering of its block pattern.
+// whole dataset's normal equations under a COLAMD ordering of its block pattern, and the block
+// products of factorizing it (s (s - 1) / 2 per column of s blocks, as the solver counts them).
+struct BatchFill {
+  std::int64_t blocks = 0;
+  std::int64_t products = 0;
+};
+BatchFill batchFactorFill(const ModelDataset& d);
 std::int64_t batchFactorBlocks(const ModelDataset& d);
 
 // The information of `f` in the solver's error coordinates: ModelFactor::information itself for

@@ -26,11 +26,16 @@ struct SmootherCapacities {
   Index factor_values = 0;
   Index factor_blocks = 0;
   Index factor_block_values = 0;
+  // A second factor for spread reorderings (SolverOptions::spread_reorder_products) of this pool,
+  // and the updates one may take; 0: none.
+  Index spread_factor_blocks = 0;
+  Index spread_updates = 0;
 
   bool operator==(const SmootherCapacities& o) const {
     return poses == o.poses && landmarks == o.landmarks && factors == o.factors &&
            factor_values == o.factor_values && factor_blocks == o.factor_blocks &&
-           factor_block_values == o.factor_block_values;
+           factor_block_values == o.factor_block_values &&
+           spread_factor_blocks == o.spread_factor_blocks && spread_updates == o.spread_updates;
   }
   bool operator!=(const SmootherCapacities& o) const { return !(*this == o); }
 };
@@ -72,31 +77,19 @@ class SizedSmootherStorage {
     takeEach(indices_, 2 * n(c.factors), {&g.entry_factor, &g.next_entry});
 
     // The Cholesky factor (StaticCholeskyStorageFor): columns are variables.
-    FactorArrays& a = factor_;
-    a.max_columns = vars;
-    a.max_blocks = c.factor_blocks;
-    if constexpr (kUniform) {
-      takeEach(blocks_, n(c.factor_blocks), {&a.blocks});
-    } else {
-      a.max_values = c.factor_block_values;
-      takeEach(doubles_, n(c.factor_block_values), {&a.values});
-      takeEach(indices_, n(c.factor_blocks), {&a.offset});
-      takeEach(bytes_, n(c.factor_blocks), {&a.row_size});
+    takeFactor(factor_, vars, c.factor_blocks, c.factor_block_values);
+    if (c.spread_factor_blocks > 0 && c.spread_updates > 0) {
+      const Index values =
+          kUniform ? 0 : c.spread_factor_blocks * FactorArrays::D * FactorArrays::D;
+      takeFactor(spread_.factor, vars, c.spread_factor_blocks, values);
+      SpreadReorderingArrays<Vector>& r = spread_.reordering;
+      takeEach(indices_, n(vars), {&r.position_of, &r.variable_at, &r.relinearized});
+      takeEach(vectors_, n(vars), {&r.relinearized_by});
+      r.max_updates = c.spread_updates;
+      takeEach(indices_, n(c.spread_updates) + 1, {&r.first_factor, &r.first_variable});
+      takeEach(indices_, n(vars), {&r.driver.last_list});
+      takeEach(bytes_, n(vars), {&r.driver.in_last});
     }
-    takeEach(indices_, n(c.factor_blocks), {&a.rows, &a.clique_entry});
-    takeEach(blocks_, n(vars),
-             {&a.diagonal, &a.staged_diagonal, &a.update_rows, &a.second_update_rows});
-    takeEach(vectors_, n(vars), {&a.d, &a.staged_d});
-    takeEach(bytes_, n(vars), {&a.needs_solve});
-    takeEach(stamps_, n(vars), {&a.queued, &a.mark});
-    takeEach(indices_, n(vars),
-             {&a.start, &a.count, &a.staged_start, &a.staged_count, &a.slot, &a.heap, &a.affected,
-              &a.child_head, &a.child_next, &a.row_list, &a.scratch, &a.new_position, &a.top_order,
-              &a.rank_of});
-    takeEach(indices_, n(vars) + 1,
-             {&a.first_child, &a.next_sibling, &a.prev_sibling, &a.clique_start});
-    const std::size_t solution = n(vars) * lslam::detail::kSolutionStride<FactorArrays::D>;
-    a.solution = takeAligned(solution);
 
     // The ordering (StaticColamdStorage<2 * factors, factors, variables>).
     ordering_.max_nonzeros = 2 * n(c.factors);
@@ -128,15 +121,49 @@ class SizedSmootherStorage {
 
   // The bytes of every buffer.
   std::size_t bufferBytes() const { return buffer_bytes_; }
+  const SpreadArrays<Model>* spreadArrays() const {
+    return capacities_.spread_factor_blocks > 0 && capacities_.spread_updates > 0 ? &spread_
+                                                                                  : nullptr;
+  }
 
   SmootherCapacities capacities_;
   SmootherArrays<Model> smoother_;
   FactorGraphArrays graph_;
   FactorArrays factor_;
+  SpreadArrays<Model> spread_;
   ColamdArrays ordering_;
   IdMapArrays ids_[2];
 
  private:
+  // The arrays of a Cholesky factor (StaticCholeskyStorageFor) of `vars` columns.
+  void takeFactor(FactorArrays& a, Index vars, Index blocks, Index block_values) {
+    const auto n = [](Index count) { return static_cast<std::size_t>(count); };
+    a.max_columns = vars;
+    a.max_blocks = blocks;
+    if constexpr (kUniform) {
+      takeEach(blocks_, n(blocks), {&a.blocks});
+    } else {
+      a.max_values = block_values;
+      takeEach(doubles_, n(block_values), {&a.values});
+      takeEach(indices_, n(blocks), {&a.offset});
+      takeEach(bytes_, n(blocks), {&a.row_size});
+    }
+    takeEach(indices_, n(blocks), {&a.rows, &a.clique_entry});
+    takeEach(blocks_, n(vars),
+             {&a.diagonal, &a.staged_diagonal, &a.update_rows, &a.second_update_rows});
+    takeEach(vectors_, n(vars), {&a.d, &a.staged_d});
+    takeEach(bytes_, n(vars), {&a.needs_solve});
+    takeEach(stamps_, n(vars), {&a.queued, &a.mark});
+    takeEach(indices_, n(vars),
+             {&a.start, &a.count, &a.staged_start, &a.staged_count, &a.slot, &a.heap, &a.affected,
+              &a.child_head, &a.child_next, &a.row_list, &a.scratch, &a.new_position, &a.top_order,
+              &a.rank_of});
+    takeEach(indices_, n(vars) + 1,
+             {&a.first_child, &a.next_sibling, &a.prev_sibling, &a.clique_start});
+    const std::size_t solution = n(vars) * lslam::detail::kSolutionStride<FactorArrays::D>;
+    a.solution = takeAligned(solution);
+  }
+
   // A zeroed buffer of `count` elements (at least one, so that every pointer is valid).
   template <class T>
   T* take(std::vector<std::vector<T>>& pool, std::size_t count) {
@@ -192,7 +219,7 @@ class SizedSmoother : private detail::SizedSmootherStorage<Model>, public Smooth
                          const SolverOptions& options = defaultSolverOptions<Model>())
       : Storage(capacities),
         Smoother<Model>(Storage::smoother_, Storage::graph_, Storage::factor_, Storage::ordering_,
-                        Storage::ids_, options) {}
+                        Storage::ids_, options, Storage::spreadArrays()) {}
 
   const SmootherCapacities& capacities() const { return Storage::capacities_; }
   std::size_t bytes() const { return Storage::bufferBytes() + sizeof(SizedSmoother); }
