@@ -194,14 +194,17 @@ void Smoother<Model>::stepSpread(const UpdatePlan& plan, UpdateResult& r) {
     return;
   }
   if (plan.start_spread) {
-    // The prepared ordering, and the candidates a reordering would relinearize.
-    ordering_.takePreparedOrdering();
+    // The prepared ordering (or the current one), and the candidates a reordering would
+    // relinearize.
+    const bool prepared = !plan.spread_in_current_order;
+    if (prepared) ordering_.takePreparedOrdering();
     graph_.beginUpdate();
     const Index count = relinearization_.stageCandidates(CandidateRange::PastThreshold, delta_, 0);
     graph_.rollback();
-    const Status s = spread_->start(ordering_.otherVariableAt(), ordering_.otherPositionOf(),
+    const Status s = spread_->start(prepared ? ordering_.otherVariableAt() : variableAt(),
+                                    prepared ? ordering_.otherPositionOf() : positionOf(),
                                     relinearization_.staged(), count, delta_);
-    ordering_.forgetPrepared();
+    if (prepared) ordering_.forgetPrepared();
     r.spread_started = s == Status::Ok;
     spread_failed_ = s != Status::Ok;
     // Each update takes an equal share of the refactorization (the last one's, scaled by the

@@ -55,8 +55,11 @@ UpdatePlan planUpdate(Graph& graph, Ordering& ordering, Relinearization& relinea
     return plan;
   }
   plan.abandon_spread = spread.active;
-  if (spread.available && !spread.active && plan.reorder_now && prepared && !at_once &&
-      spread.above_products > 0 && driver.lastFull().products > spread.above_products) {
+  const auto startsSpread = [&] {
+    return spread.available && !spread.active && !at_once && spread.above_products > 0 &&
+           driver.lastFull().products > spread.above_products;
+  };
+  if (plan.reorder_now && prepared && startsSpread()) {
     plan.reorder_now = false;
     plan.start_spread = true;
     return plan;
@@ -105,6 +108,16 @@ UpdatePlan planUpdate(Graph& graph, Ordering& ordering, Relinearization& relinea
     // linearization alone.
     plan.relinearized =
         relinearization.stageCandidates(CandidateRange::LeftWaiting, delta, plan.relinearized);
+  }
+  if (plan.refactor_fully && startsSpread()) {
+    // A relinearization by a full refactorization costs what a reordering does: spread it too, in
+    // the current order.
+    graph.unstageRelinearization();
+    plan.relinearized = 0;
+    plan.relinearize_now = false;
+    plan.refactor_fully = false;
+    plan.start_spread = true;
+    plan.spread_in_current_order = true;
   }
   return plan;
 }

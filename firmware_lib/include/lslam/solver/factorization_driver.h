@@ -31,7 +31,8 @@ struct UpdatePlan {
   bool drop_anchor = false;       // the anchor leaves: every column refactorized, whatever else
   bool reorder_required = false;  // reorder_now asked by the caller: without an ordering it fails
   bool start_spread = false;      // the reordering is spread over the next updates instead
-  bool abandon_spread = false;    // a spread reordering in progress ends (this one reorders now)
+  bool spread_in_current_order = false;  // ...of a relinearization by a full refactorization
+  bool abandon_spread = false;  // a spread reordering in progress ends (this one reorders now)
   // The due relinearization waits for the next reordering (relinearize_defer_products), and the
   // block products charged to that reordering's work budget once the update commits (its in-place
   // estimate the first time it waits, 0 after).
