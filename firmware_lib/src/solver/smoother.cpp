@@ -185,7 +185,6 @@ Status Smoother<Model>::update(const Variable* variables, Index num_variables,
 template <class Model>
 void Smoother<Model>::stepSpread(const UpdatePlan& plan, UpdateResult& r) {
   if (spread_ == nullptr) return;
-  if (r.reordered) spread_failed_ = false;  // a reordering in one update came after a failure
   if (plan.abandon_spread || r.variables_relinearized > 0 || r.refactored_fully) {
     r.spread_abandoned = spreadActive();
     // Given up for a relinearization, not for a reordering done here: the next runs in one update.
@@ -205,6 +204,7 @@ void Smoother<Model>::stepSpread(const UpdatePlan& plan, UpdateResult& r) {
                                     prepared ? ordering_.otherPositionOf() : positionOf(),
                                     relinearization_.staged(), count, delta_);
     if (prepared) ordering_.forgetPrepared();
+    spread_in_current_order_ = !prepared;
     r.spread_started = s == Status::Ok;
     spread_failed_ = s != Status::Ok;
     // Each update takes an equal share of the refactorization (the last one's, scaled by the
@@ -237,14 +237,16 @@ void Smoother<Model>::swapInSpread(UpdateResult& r) {
   cholesky_.swap(*spare_);
   ordering_.adoptOrder(spread_->variableAt(), spread_->positionOf());
   const FactorizationStats& built = spread_->buildStats();
-  ordering_.noteFactorization(true, true, built, 0);
+  // (A relinearization spread in the current order is no reordering: the growth and the work
+  // budget since the last one go on.)
+  ordering_.noteFactorization(!spread_in_current_order_, true, built, 0);
   driver_.noteFullRefactorization(built.block_products, spread_->buildBlocks());
   for (Index i = 0; i < spread_->relinearizedCount(); ++i) {
     delta_[spread_->relinearized()[i]].setZero();
   }
   cholesky_.loadSolution(delta_, variableAt());
   relinearization_.noteUpdate(true, false, delta_);
-  r.reordered = true;
+  r.reordered = !spread_in_current_order_;
   r.refactored_fully = true;
   r.spread_swapped = true;
   r.variables_relinearized += spread_->relinearizedCount();
@@ -332,8 +334,10 @@ UpdatePlan Smoother<Model>::planUpdate(Index new_variables, bool drop_anchor, bo
 template <class Model>
 Status Smoother<Model>::refactor(Index new_variables, const UpdatePlan& plan, bool allow_reorder,
                                  UpdateResult& r) {
-  return detail::refactorAndRestart(cholesky_, ordering_, relinearization_, driver_, delta_,
-                                    new_variables, plan, allow_reorder, r);
+  const Status s = detail::refactorAndRestart(cholesky_, ordering_, relinearization_, driver_,
+                                              delta_, new_variables, plan, allow_reorder, r);
+  if (s == Status::Ok && r.reordered) spread_failed_ = false;  // one update reordered after it
+  return s;
 }
 
 template <class Model>

@@ -116,6 +116,7 @@ UpdatePlan planUpdate(Graph& graph, Ordering& ordering, Relinearization& relinea
     plan.relinearized = 0;
     plan.relinearize_now = false;
     plan.refactor_fully = false;
+    plan.prepare_ordering = false;  // (the spread's swap does not count as a reordering)
     plan.start_spread = true;
     plan.spread_in_current_order = true;
   }

@@ -278,6 +278,7 @@ class Smoother {
   std::int64_t spread_share_ = 0;  // the block products of each update's share of the build
   // The last spread reordering failed or was abandoned: the next reordering runs in one update.
   bool spread_failed_ = false;
+  bool spread_in_current_order_ = false;  // the build relinearizes in the current order
   alignas(Factor) unsigned char spare_storage_[sizeof(Factor)];
   alignas(Spread) unsigned char spread_storage_[sizeof(Spread)];
 };
