@@ -115,6 +115,9 @@ Smoother<Model>::Smoother(const SmootherArrays<Model>& arrays, const FactorGraph
       relinearization_(relinearizationArrays(arrays), graph_, cholesky_, options_),
       driver_(factorizationArrays(arrays), graph_, cholesky_, options_) {
   if (spread != nullptr) {
+    // Placement new, allowed here: it builds the two objects in this object's own storage
+    // (spare_storage_, spread_storage_), no heap, once, at construction; both are trivially
+    // destructible. They exist only when the caller gives their memory.
     spare_ = new (spare_storage_) Factor(withKinds(spread->factor, graph_.variableKinds()));
     spread_ = new (spread_storage_) Spread(spread->reordering, graph_, *spare_, options_);
   }
@@ -209,10 +212,7 @@ void Smoother<Model>::stepSpread(const UpdatePlan& plan, UpdateResult& r) {
     spread_failed_ = s != Status::Ok;
     // Each update takes an equal share of the refactorization (the last one's, scaled by the
     // growth since), over at most kSpreadUpdates updates.
-    const FullRefactorizationCost& last = driver_.lastFull();
-    const double predicted = static_cast<double>(last.products) *
-                             static_cast<double>(cholesky_.liveBlocks()) /
-                             static_cast<double>(std::max<Index>(last.blocks, 1));
+    const double predicted = predictedFullProducts(driver_.lastFull(), cholesky_.liveBlocks());
     spread_share_ = std::max(options_.spread_reorder_products,
                              static_cast<std::int64_t>(predicted / kSpreadUpdates));
     return;

@@ -41,6 +41,13 @@ struct FullRefactorizationCost {
   Index blocks = 0;
 };
 
+// The block products of a full refactorization of a factor of live_blocks blocks: the last one's,
+// scaled by the growth since.
+inline double predictedFullProducts(const FullRefactorizationCost& last, Index live_blocks) {
+  return static_cast<double>(last.products) * static_cast<double>(live_blocks) /
+         static_cast<double>(last.blocks > 0 ? last.blocks : 1);
+}
+
 template <class Graph, class Factor>
 class RelinearizationPolicy {
  public:
@@ -114,8 +121,7 @@ class RelinearizationPolicy {
   Bars bars() const;
   // The block products of a full refactorization now: the last one's, scaled by the growth since.
   double fullProducts(const FullRefactorizationCost& last_full) const {
-    return static_cast<double>(last_full.products) * static_cast<double>(factor_.liveBlocks()) /
-           static_cast<double>(last_full.blocks);
+    return predictedFullProducts(last_full, factor_.liveBlocks());
   }
   // Whether the graph is below converge_below_variables (SolverOptions).
   bool convergesWithinUpdates() const;

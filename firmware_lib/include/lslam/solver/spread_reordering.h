@@ -3,7 +3,7 @@
 // fresh order is built beside the live one while the live one keeps serving, then replaces it.
 //
 // - start(): takes the prepared ordering and the candidates due for relinearization, and runs the
-//   symbolic phase and the assembly of Lambda (the candidates at their new points, staged in the
+//   symbolic phase and the assembly of Lambda (the candidates at their moved points, staged in the
 //   graph for that call only: the live factor keeps the old ones).
 // - advance(), after each committed update: the numeric phase, max_products block products at a
 //   time; then the updates committed meanwhile, each as row updates of its factors (at the same
