@@ -313,6 +313,47 @@ void checkAvxReflections(std::mt19937& rng, const std::vector<Index>& rows,
   for (int m = 0; m < M; ++m) {
     for (std::size_t r = 0; r < num_rows; ++r) CHECK(sameBits<D>(w[m][r], w_expected[m][r]));
   }
+#if defined(__x86_64__)
+  // The AVX-512 form, where the CPU has it: the same staging from the same sources and W.
+  if constexpr (D == 6) {
+    if (lslam::detail::cpuHasAvx512()) {
+      std::vector<Block> w_512[M];
+      Block* w_512_of[M];
+      for (int m = 0; m < M; ++m) w_512[m] = w_expected[m];
+      arrays(w_512, w_512_of);
+      std::vector<Block> staged_512(rows.size(), randomBlock<D>(rng));
+      std::vector<Block> staged_512_expected = staged_512;
+      for (Index b = 1; b < size; ++b) {
+        staged_512_expected[b] = b < kept                       ? sources[b]
+                                 : source[b] == lslam::kNoIndex ? Block::Zero()
+                                                                : sources[source[b]];
+      }
+      reflect_expected(staged_512_expected, w_expected);
+      lslam::detail::applyRowReflectionsFromAvx512<M>(u, beta, sources.data(), source.data(), kept,
+                                                      staged_512.data(), rows.data(), size,
+                                                      w_512_of);
+      for (std::size_t b = 0; b < staged_512.size(); ++b) {
+        CHECK(sameBits<D>(staged_512[b], staged_512_expected[b]));
+      }
+      for (int m = 0; m < M; ++m) {
+        for (std::size_t r = 0; r < num_rows; ++r)
+          CHECK(sameBits<D>(w_512[m][r], w_expected[m][r]));
+      }
+      // In place.
+      std::vector<Block> in_place = staged_512_expected;
+      reflect_expected(staged_512_expected, w_expected);
+      lslam::detail::applyRowReflectionsFromAvx512<M>(u, beta, in_place.data(), nullptr, size,
+                                                      in_place.data(), rows.data(), size, w_512_of);
+      for (std::size_t b = 1; b < in_place.size(); ++b) {
+        CHECK(sameBits<D>(in_place[b], staged_512_expected[b]));
+      }
+      for (int m = 0; m < M; ++m) {
+        for (std::size_t r = 0; r < num_rows; ++r)
+          CHECK(sameBits<D>(w_512[m][r], w_expected[m][r]));
+      }
+    }
+  }
+#endif
 
   // The right-hand side's row, through the AVX-compiled instance of the portable form.
   using Row = Eigen::Matrix<double, 1, D>;
@@ -422,5 +463,6 @@ TEST_CASE("the AVX block kernels compute the portable forms' bits") {
   checkAvxKernels<3>();
 #if defined(__x86_64__)
   checkAvxKernels<6>();
+  if (!lslam::detail::cpuHasAvx512()) MESSAGE("skipped the AVX-512 forms: this CPU has none");
 #endif
 }

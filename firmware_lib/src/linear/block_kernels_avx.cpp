@@ -1,4 +1,5 @@
 #include "lslam/linear/block_kernels.h"
+#include "reflection_coefficients.h"
 
 #if defined(__x86_64__)
 #include <immintrin.h>
@@ -36,28 +37,10 @@ LSLAM_TARGET_AVX_FMA inline __m256d addProductColumn(__m256d b0, __m256d b1, __m
   return _mm256_fmadd_pd(b2, _mm256_broadcast_sd(&s(2, c)), t);
 }
 
-// The reflections' coefficients where a row block's loop reads them: per reflection j the u
-// entries of factor 0 (c = 0, 1, 2), of factor 1, .., then beta(j). A local copy, because the
-// W and L stores may alias u for all the compiler knows: read through u, GCC reloads each entry
-// per block.
-template <int M>
-struct ReflectionCoefficients {
-  double of[3][3 * M + 1];
-
-  ReflectionCoefficients(const Mat3* u, const Vec3& beta) {
-    for (int j = 0; j < 3; ++j) {
-      for (int m = 0; m < M; ++m) {
-        for (int c = 0; c < 3; ++c) of[j][3 * m + c] = u[m](c, j);
-      }
-      of[j][3 * M] = beta(j);
-    }
-  }
-};
-
 // One row block of applyRowReflectionsFromAvx: [l w[0] .. w[M-1]] H... from l_in to l_out, w in
 // place.
 template <int M>
-LSLAM_TARGET_AVX_FMA inline void reflectRowBlock(const ReflectionCoefficients<M>& h,
+LSLAM_TARGET_AVX_FMA inline void reflectRowBlock(const ReflectionCoefficients<3, M>& h,
                                                  const double* l_in, double* l_out,
                                                  double* const* w) {
   __m256d l[3] = {loadColumn(l_in, 0), loadColumn(l_in, 1), loadColumn(l_in, 2)};
@@ -95,7 +78,7 @@ LSLAM_TARGET_AVX_FMA void applyRowReflectionsFromAvx(const Mat3* u, const Vec3& 
                                                      Index kept, Mat3* blocks, const Index* rows,
                                                      Index size, Mat3* const* w) {
   static const Mat3 kZero = Mat3::Zero();
-  const ReflectionCoefficients<M> h(u, beta);
+  const ReflectionCoefficients<3, M> h(u, beta);
   for (Index b = 1; b < kept; ++b) {
     double* w_data[M];
     for (int m = 0; m < M; ++m) w_data[m] = w[m][rows[b]].data();
@@ -314,27 +297,11 @@ struct Lanes2 {
   LSLAM_TARGET_AVX_FMA static V add(V a, V b) { return _mm_add_pd(a, b); }
 };
 
-// ReflectionCoefficients for D = 6: per reflection j the u entries of factor 0 (c = 0 .. 5), of
-// factor 1, .., then beta(j); a local copy, as there.
-template <int M>
-struct ReflectionCoefficients6 {
-  double of[6][6 * M + 1];
-
-  ReflectionCoefficients6(const Mat6* u, const Vec6& beta) {
-    for (int j = 0; j < 6; ++j) {
-      for (int m = 0; m < M; ++m) {
-        for (int c = 0; c < 6; ++c) of[j][6 * m + c] = u[m](c, j);
-      }
-      of[j][6 * M] = beta(j);
-    }
-  }
-};
-
 // One half (rows 0-3 or 4-5) of a 6 x 6 row block of applyRowReflectionsFromAvx: [l w[0] ..] H...
 // from l_in to l_out (which may be l_in), w in place. Only W stays in registers: reflection j reads
 // and writes column j of l alone, so it is loaded and stored there.
 template <typename L, int M>
-LSLAM_TARGET_AVX_FMA inline void reflectRowHalf6(const ReflectionCoefficients6<M>& h,
+LSLAM_TARGET_AVX_FMA inline void reflectRowHalf6(const ReflectionCoefficients<6, M>& h,
                                                  const double* l_in, double* l_out,
                                                  double* const* w) {
   using V = typename L::V;
@@ -391,7 +358,7 @@ LSLAM_TARGET_AVX_FMA inline void storeBottomPair(double* p, double* q, __m256d v
 // reflectRowHalf6 on rows 4-5 of two row blocks at once, packed in 4-lane registers: each lane
 // takes the same operations as in the 2-lane form (the same bits), in half the instructions.
 template <int M>
-LSLAM_TARGET_AVX_FMA inline void reflectBottomPair6(const ReflectionCoefficients6<M>& h,
+LSLAM_TARGET_AVX_FMA inline void reflectBottomPair6(const ReflectionCoefficients<6, M>& h,
                                                     const double* const* l_in, double* const* l_out,
                                                     double* const* w_p, double* const* w_q) {
   __m256d x[M][6];
@@ -433,7 +400,7 @@ LSLAM_TARGET_AVX_FMA inline void reflectBottomPair6(const ReflectionCoefficients
 }
 
 template <int M>
-LSLAM_TARGET_AVX_FMA inline void reflectRowBlock6(const ReflectionCoefficients6<M>& h,
+LSLAM_TARGET_AVX_FMA inline void reflectRowBlock6(const ReflectionCoefficients<6, M>& h,
                                                   const double* l_in, double* l_out,
                                                   double* const* w) {
   reflectRowHalf6<Lanes4, M>(h, l_in, l_out, w);
@@ -484,14 +451,8 @@ LSLAM_TARGET_AVX_FMA void applyRowReflectionsFromAvx(const Mat6* u, const Vec6& 
                                                      const Mat6* source_blocks, const Index* source,
                                                      Index kept, Mat6* blocks, const Index* rows,
                                                      Index size, Mat6* const* w) {
-  static const Mat6 kZero = Mat6::Zero();
-  const ReflectionCoefficients6<M> h(u, beta);
-  auto input = [&](Index b) {
-    return (b < kept                ? source_blocks + b
-            : source[b] != kNoIndex ? source_blocks + source[b]
-                                    : &kZero)
-        ->data();
-  };
+  const ReflectionCoefficients<6, M> h(u, beta);
+  const ReflectionSources<6> input{source_blocks, source, kept};
   // Two row blocks at a time: rows 0-3 of each, then rows 4-5 of both in one register.
   Index b = 1;
   for (; b + 1 < size; b += 2) {

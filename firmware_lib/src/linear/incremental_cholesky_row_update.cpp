@@ -63,6 +63,15 @@ template <int D, int M>
 void reflectRows(const RowReflections<D, D, M>& h, const Eigen::Matrix<double, D, D>* source_blocks,
                  const Index* source, Index kept, Eigen::Matrix<double, D, D>* blocks,
                  const Index* rows, Index size, Eigen::Matrix<double, D, D>* const* w) {
+#if defined(__x86_64__)
+  if constexpr (D == 6) {
+    if (detail::cpuHasAvx512()) {
+      detail::applyRowReflectionsFromAvx512<M>(h.u, h.beta, source_blocks, source, kept, blocks,
+                                               rows, size, w);
+      return;
+    }
+  }
+#endif
   if constexpr (detail::kAvxForms<D>) {
     if (detail::cpuHasAvxFma()) {
       detail::applyRowReflectionsFromAvx<M>(h.u, h.beta, source_blocks, source, kept, blocks, rows,
