@@ -644,7 +644,15 @@ LSLAM_TARGET_AVX_FMA void subtractOuterProductsOfColumnsAvx(const Mat6* const* c
   }
 }
 
+template <int M>
+LSLAM_TARGET_AVX_FMA bool triangularizeRows6Avx(const Mat6& l, const Mat6* w, Mat6& l_new, Mat6* u,
+                                                Vec6& beta) {
+  return triangularizeRows6<M>(l, w, l_new, u, beta);
+}
+
 // The reflections of one factor and of two at D = 6.
+template bool triangularizeRows6Avx<1>(const Mat6&, const Mat6*, Mat6&, Mat6*, Vec6&);
+template bool triangularizeRows6Avx<2>(const Mat6&, const Mat6*, Mat6&, Mat6*, Vec6&);
 template void applyRowReflectionsToRowAvx<1>(const Mat6*, const Vec6&, Eigen::Matrix<double, 1, 6>&,
                                              Eigen::Matrix<double, 1, 6>* const*);
 template void applyRowReflectionsToRowAvx<2>(const Mat6*, const Vec6&, Eigen::Matrix<double, 1, 6>&,

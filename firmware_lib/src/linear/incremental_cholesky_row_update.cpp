@@ -311,7 +311,13 @@ Status IncrementalCholesky<S...>::rowUpdateColumn(Index k, const Index* pattern,
     RowReflections<D, D, M> h;
     Block w_k[M];
     for (int m = 0; m < M; ++m) w_k[m] = w[m][k];
-    if (!triangularizeRows(old.l, w_k, l_new, h)) return Status::NotPositiveDefinite;
+    bool full_rank = false;
+    if constexpr (D == 6) {
+      full_rank = detail::triangularizeRowsOfSix<M>(old.l, w_k, l_new, h.u, h.beta);
+    } else {
+      full_rank = triangularizeRows(old.l, w_k, l_new, h);
+    }
+    if (!full_rank) return Status::NotPositiveDefinite;
 
     const Index start = in_place ? old_start : pool_end_;
     Index* rows = a_.rows + start;

@@ -165,6 +165,91 @@ inline void applyRowReflections(const Eigen::Matrix<double, D, D>* u,
   applyReflectionsToRows<D, D, M, D>(u, beta, x_l, x_w);
 }
 
+// The row update's triangularization of one 6 x 6 column with M factors' rows (the uniform D = 6
+// path; other sizes keep the general form in the row update): the reflections H_0 .. H_5 with
+// [l w_0 .. w_{M-1}] H_0 ... H_5 = [l' 0 ..], l' lower-triangular with a positive diagonal, as
+// u[m], beta (see applyReflectionsToRows), and l'. H_j is formed from row j as updated by H_0 ..
+// H_{j-1} (Householder, sign chosen so that the kept entry is +norm) and applied to rows j .. 5.
+// Every sum in one fixed order, fused (multiplyAdd<6>), so that the AVX-512 form, which runs the
+// six rows as lanes, computes the same bits: sigma = sum of w_jc^2 per factor as two chains of
+// three (c = 0-2, 3-5) joined by an add, factors in order; u = w_j / v0 as w_j (1 / v0); each row's
+// t, s and update as in applyReflectionsToRows. Returns false if a diagonal entry of l' is not
+// positive and finite.
+template <int M>
+inline bool triangularizeRows6(const Eigen::Matrix<double, 6, 6>& l,
+                               const Eigen::Matrix<double, 6, 6>* w,
+                               Eigen::Matrix<double, 6, 6>& l_new, Eigen::Matrix<double, 6, 6>* u,
+                               Eigen::Matrix<double, 6, 1>& beta) {
+  double m_l[6][6];   // [column][row]
+  double x[M][6][6];  // [factor][column][row]
+  for (int c = 0; c < 6; ++c) {
+    for (int r = 0; r < 6; ++r) m_l[c][r] = l(r, c);
+  }
+  for (int m = 0; m < M; ++m) {
+    for (int c = 0; c < 6; ++c) {
+      for (int r = 0; r < 6; ++r) x[m][c][r] = w[m](r, c);
+    }
+  }
+  for (int j = 0; j < 6; ++j) {
+    const double alpha = m_l[j][j];
+    double sigma = 0.0;
+    for (int m = 0; m < M; ++m) {
+      const double* xj[6] = {&x[m][0][j], &x[m][1][j], &x[m][2][j],
+                             &x[m][3][j], &x[m][4][j], &x[m][5][j]};
+      double low = *xj[0] * *xj[0];
+      low = multiplyAdd<6>(*xj[1], *xj[1], low);
+      low = multiplyAdd<6>(*xj[2], *xj[2], low);
+      double high = *xj[3] * *xj[3];
+      high = multiplyAdd<6>(*xj[4], *xj[4], high);
+      high = multiplyAdd<6>(*xj[5], *xj[5], high);
+      const double part = low + high;
+      sigma = m == 0 ? part : sigma + part;
+    }
+    const double square = alpha * alpha;
+    const double norm = std::sqrt(square + sigma);
+    if (!(norm > 0.0) || !std::isfinite(norm)) return false;
+    if (sigma == 0.0 && alpha > 0.0) {  // row j is already in place: H_j = I
+      beta(j) = 0.0;
+      for (int m = 0; m < M; ++m) u[m].col(j).setZero();
+      continue;
+    }
+    // v = x - norm e_j, scaled so that v(j) = 1; for alpha > 0 the difference is formed as
+    // -sigma / (alpha + norm), which does not cancel.
+    const double v0 = alpha <= 0.0 ? alpha - norm : -sigma / (alpha + norm);
+    const double v0_squared = v0 * v0;
+    beta(j) = 2.0 * v0_squared / (sigma + v0_squared);
+    const double inverse = 1.0 / v0;
+    double uj[M][6];
+    for (int m = 0; m < M; ++m) {
+      for (int c = 0; c < 6; ++c) {
+        uj[m][c] = x[m][c][j] * inverse;
+        u[m](c, j) = uj[m][c];
+      }
+    }
+    // Rows above j are final (their w is rounding of zero and no longer read).
+    for (int r = j; r < 6; ++r) {
+      double t = m_l[j][r];
+      for (int m = 0; m < M; ++m) {
+        double high = x[m][3][r] * uj[m][3];
+        high = multiplyAdd<6>(x[m][4][r], uj[m][4], high);
+        high = multiplyAdd<6>(x[m][5][r], uj[m][5], high);
+        for (int c = 0; c < 3; ++c) t = multiplyAdd<6>(x[m][c][r], uj[m][c], t);
+        t = t + high;
+      }
+      const double s = beta(j) * t;
+      m_l[j][r] = m_l[j][r] - s;
+      for (int m = 0; m < M; ++m) {
+        for (int c = 0; c < 6; ++c) x[m][c][r] = multiplyAdd<6>(-s, uj[m][c], x[m][c][r]);
+      }
+    }
+  }
+  // What remains right of the diagonal is rounding of exact zeros.
+  for (int c = 0; c < 6; ++c) {
+    for (int r = 0; r < 6; ++r) l_new(r, c) = r >= c ? m_l[c][r] : 0.0;
+  }
+  return true;
+}
+
 // How many doubles each column's entry of the solution takes in the back-substitution's array of
 // solutions by column position: D, or 4 for D = 3 so that an entry is one 32-byte SIMD load with a
 // zero fourth lane (and its address a shift of the row).
@@ -320,6 +405,16 @@ template <int M>
 __attribute__((target("avx512f,avx2,fma"))) void applyRowReflectionsFromAvx512(
     const Mat6* u, const Vec6& beta, const Mat6* source_blocks, const Index* source, Index kept,
     Mat6* blocks, const Index* rows, Index size, Mat6* const* w);
+// triangularizeRows6<M> with the six rows in AVX-512 lanes (when cpuHasAvx512()), and the portable
+// form compiled for AVX2/FMA (std::fma an instruction, not a call into libm): the same bits.
+template <int M>
+__attribute__((target("avx512f,avx2,fma"))) bool triangularizeRows6Avx512(const Mat6& l,
+                                                                          const Mat6* w,
+                                                                          Mat6& l_new, Mat6* u,
+                                                                          Vec6& beta);
+template <int M>
+LSLAM_TARGET_AVX_FMA bool triangularizeRows6Avx(const Mat6& l, const Mat6* w, Mat6& l_new, Mat6* u,
+                                                Vec6& beta);
 // solveColumnInPlace<6> with subtractTransposedProductsFused and multiplyTransposed above.
 bool solveColumnAvx(const Vec6& d, const Mat6* blocks, const Index* rows, Index size,
                     double* solution, Index k, double tolerance, Vec6& delta);
@@ -331,6 +426,20 @@ void subtractOuterProductsOfColumnsAvx(const Mat6* const* columns, Index num_col
                                        const Index* rows, Index first, Index size,
                                        const Index* target_rows, Mat6* target);
 #endif
+
+// triangularizeRows6<M> through the fastest form this CPU runs (the same bits).
+template <int M>
+inline bool triangularizeRowsOfSix(const Eigen::Matrix<double, 6, 6>& l,
+                                   const Eigen::Matrix<double, 6, 6>* w,
+                                   Eigen::Matrix<double, 6, 6>& l_new,
+                                   Eigen::Matrix<double, 6, 6>* u,
+                                   Eigen::Matrix<double, 6, 1>& beta) {
+#if defined(__x86_64__)
+  if (cpuHasAvx512()) return triangularizeRows6Avx512<M>(l, w, l_new, u, beta);
+  if (cpuHasAvxFma()) return triangularizeRows6Avx<M>(l, w, l_new, u, beta);
+#endif
+  return triangularizeRows6<M>(l, w, l_new, u, beta);
+}
 
 // multiplyByTransposedLower<D>(blocks[b], l) for b in [0, count), through the AVX2/FMA form on
 // hosts that have it (the same bits).
