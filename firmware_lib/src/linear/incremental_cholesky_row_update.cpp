@@ -340,7 +340,8 @@ Status IncrementalCholesky<S...>::rowUpdateColumn(Index k, const Index* pattern,
     const std::int64_t products = (2 * M + 1) * static_cast<std::int64_t>(size - 1);
     Vector d_new;
     if (!rotateRightHandSide<M>(h, old.d, rhs, d_new)) return Status::NumericalOverflow;
-    blocks[0] = detail::invertLowerTriangular<D>(l_new);
+    // blocks[0], L(k,k)^-1 for the solve, is written once per column by finishRowUpdate: a loop
+    // closure step rotates most of its path's columns two or three times.
     if (!in_place) pool_end_ += size;
     stageRotatedColumn<D>(k, staged, start, size, l_new, d_new);
     stats_.block_products += products;
@@ -559,6 +560,14 @@ Status IncrementalCholesky<S...>::finishRowUpdate() {
   for (Index k = n_; k < staged_columns_; ++k) {
     if (row_update_mark_ == 0 || a_.mark[k] != row_update_mark_) {
       return Status::NotPositiveDefinite;  // an added column no factor reached has no pivot
+    }
+  }
+  if constexpr (kUniform) {
+    for (Index i = 0; row_update_mark_ != 0 && i < affected_count_; ++i) {
+      const Index k = a_.affected[i];
+      if (a_.mark[k] == row_update_mark_) {
+        a_.blocks[a_.staged_start[k]] = detail::invertLowerTriangular<D>(a_.staged_diagonal[k]);
+      }
     }
   }
   stats_.columns_recomputed = affected_count_;

@@ -219,7 +219,8 @@ class IncrementalCholesky {
   // into each column of the shared path in one pass (a rank-2D update), so that path's columns are
   // read, reflected and staged once, not twice.
   [[nodiscard]] Status addFactorRows(const FactorRows& first, const FactorRows& second);
-  // Ends the row updates of this update: NotPositiveDefinite if an added column received none.
+  // Ends the row updates of this update: NotPositiveDefinite if an added column received none;
+  // else writes each rotated column's L(k,k)^-1 (once, however often the column was rotated).
   [[nodiscard]] Status finishRowUpdate();
 
   // Moves the live columns to the front of the pool (no update may be in progress).
