@@ -2,10 +2,11 @@
 //
 // A 6 x 6 block's column is one 8-lane register with lanes 6-7 masked off (loads read zeros there,
 // stores leave memory alone), so a row block's reflections take one instruction per column where
-// the AVX2 form takes a 4-lane and (paired) half a 2-lane one. The 32 registers hold the W columns
-// of several row blocks at once (M 6 per block); their reflections are independent chains, which
-// keeps both multiply-add pipes busy through each chain's latency. Every lane runs one row's
-// operations in applyRowReflections' order, so the bits are the portable form's.
+// the AVX2 form takes a 4-lane and (paired) half a 2-lane one. The 32 registers hold two factors'
+// W columns of two row blocks at once (where AVX2's 16 spill); their reflections are independent
+// chains, which keeps both multiply-add pipes busy through each chain's latency. Every lane runs
+// one row's operations in applyRowReflections' order, so the bits are the portable form's. The
+// 6 x 6 triangularization's AVX-512 form (rows as lanes) is here too.
 #include "lslam/linear/block_kernels.h"
 #include "reflection_coefficients.h"
 
@@ -111,9 +112,8 @@ LSLAM_TARGET_AVX512 inline void reflectGroup(const ReflectionCoefficients<6, M>&
   reflectRowBlocks<M, B>(h, l_in, l_out, w_of);
 }
 
-// Row blocks per group: as many chains as the registers hold (M = 2: 24 for W; M = 1: 24 too).
-template <int M>
-constexpr int kGroup = M == 1 ? 4 : 2;
+// Row blocks per group: two factors' columns of two row blocks take 24 of the 32 registers.
+constexpr int kGroup = 2;
 
 }  // namespace
 
@@ -125,23 +125,10 @@ LSLAM_TARGET_AVX512 void applyRowReflectionsFromAvx512(const Mat6* u, const Vec6
                                                        Mat6* const* w) {
   const ReflectionCoefficients<6, M> h(u, beta);
   const ReflectionSources<6> input{source_blocks, source, kept};
-  constexpr int kB = kGroup<M>;
+  constexpr int kB = kGroup;
   Index b = 1;
   for (; b + kB <= size; b += kB) reflectGroup<M, kB>(h, input, blocks, rows, b, w);
-  // The rest in one smaller group.
-  switch (size - b) {
-    case 3:
-      if constexpr (kB > 3) reflectGroup<M, 3>(h, input, blocks, rows, b, w);
-      break;
-    case 2:
-      if constexpr (kB > 2) reflectGroup<M, 2>(h, input, blocks, rows, b, w);
-      break;
-    case 1:
-      reflectGroup<M, 1>(h, input, blocks, rows, b, w);
-      break;
-    default:
-      break;
-  }
+  if (b < size) reflectGroup<M, 1>(h, input, blocks, rows, b, w);  // the odd one
 }
 
 // triangularizeRows6 with row r in lane r: per reflection j, row j's entries are broadcast from
@@ -227,8 +214,6 @@ LSLAM_TARGET_AVX512 bool triangularizeRows6Avx512(const Mat6& l, const Mat6* w, 
 
 template bool triangularizeRows6Avx512<1>(const Mat6&, const Mat6*, Mat6&, Mat6*, Vec6&);
 template bool triangularizeRows6Avx512<2>(const Mat6&, const Mat6*, Mat6&, Mat6*, Vec6&);
-template void applyRowReflectionsFromAvx512<1>(const Mat6*, const Vec6&, const Mat6*, const Index*,
-                                               Index, Mat6*, const Index*, Index, Mat6* const*);
 template void applyRowReflectionsFromAvx512<2>(const Mat6*, const Vec6&, const Mat6*, const Index*,
                                                Index, Mat6*, const Index*, Index, Mat6* const*);
 

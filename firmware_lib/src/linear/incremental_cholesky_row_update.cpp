@@ -64,7 +64,9 @@ void reflectRows(const RowReflections<D, D, M>& h, const Eigen::Matrix<double, D
                  const Index* source, Index kept, Eigen::Matrix<double, D, D>* blocks,
                  const Index* rows, Index size, Eigen::Matrix<double, D, D>* const* w) {
 #if defined(__x86_64__)
-  if constexpr (D == 6) {
+  // Two factors only: one factor's columns fit AVX2's registers, and its 8-lane form, though
+  // faster alone, made sphere2500's updates slower (1.3x its time); the cause is not known.
+  if constexpr (D == 6 && M == 2) {
     if (detail::cpuHasAvx512()) {
       detail::applyRowReflectionsFromAvx512<M>(h.u, h.beta, source_blocks, source, kept, blocks,
                                                rows, size, w);

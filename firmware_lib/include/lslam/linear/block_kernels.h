@@ -336,8 +336,9 @@ constexpr bool cpuHasAvxFma() {
 #endif
 
 // Whether this CPU also runs the AVX-512 forms (512-bit registers, 32 of them): the row update's
-// reflections at D = 6, where a block's six rows fit one register and the two factors' W columns
-// of two row blocks stay in registers (in AVX2's 16 they spill). Same load and test as above.
+// two-factor reflections and triangularization at D = 6, where a block's six rows fit one
+// register and two factors' W columns of two row blocks stay in registers (in AVX2's 16 they
+// spill). Same load and test as above.
 #if defined(__x86_64__)
 inline bool cpuHasAvx512() {
   return cpuHasAvxFma() && __builtin_cpu_supports("avx512f") != 0;
@@ -399,8 +400,8 @@ template <int M>
 LSLAM_TARGET_AVX_FMA void applyRowReflectionsToRowAvx(const Mat6* u, const Vec6& beta,
                                                       Eigen::Matrix<double, 1, 6>& x_l,
                                                       Eigen::Matrix<double, 1, 6>* const* x_w);
-// applyRowReflectionsFromAvx<M> at D = 6 in AVX-512 registers (when cpuHasAvx512()), the same
-// bits: each lane runs a row's operations in the same order.
+// applyRowReflectionsFromAvx<2> at D = 6 in AVX-512 registers (when cpuHasAvx512()), the same
+// bits: each lane runs a row's operations in the same order. Instantiated for M = 2 only.
 template <int M>
 __attribute__((target("avx512f,avx2,fma"))) void applyRowReflectionsFromAvx512(
     const Mat6* u, const Vec6& beta, const Mat6* source_blocks, const Index* source, Index kept,
