@@ -1,12 +1,12 @@
 // The row update's reflections at D = 6 in AVX-512 registers (x86-64 hosts that have them).
 //
-// A 6 x 6 block's column is one 8-lane register with lanes 6-7 masked off (loads read zeros there,
-// stores leave memory alone), so a row block's reflections take one instruction per column where
-// the AVX2 form takes a 4-lane and (paired) half a 2-lane one. The 32 registers hold two factors'
-// W columns of two row blocks at once (where AVX2's 16 spill); their reflections are independent
-// chains, which keeps both multiply-add pipes busy through each chain's latency. Every lane runs
-// one row's operations in applyRowReflections' order, so the bits are the portable form's. The
-// 6 x 6 triangularization's AVX-512 form (rows as lanes) is here too.
+// A 6 x 6 block's column is one 8-lane register with lanes 6-7 unused, so a row block's reflections
+// take one instruction per column where the AVX2 form takes a 4-lane and (paired) half a 2-lane
+// one. The 32 registers hold two factors' W columns of two row blocks at once (where AVX2's 16
+// spill); their reflections are independent chains, which keeps both multiply-add pipes busy
+// through each chain's latency. Every lane runs one row's operations in applyRowReflections' order,
+// so the bits are the portable form's. The 6 x 6 triangularization's AVX-512 form (rows as lanes)
+// is here too.
 #include "lslam/linear/block_kernels.h"
 #include "reflection_coefficients.h"
 
@@ -27,11 +27,26 @@ namespace {
 
 constexpr __mmask8 kSixRows = 0x3F;
 
+// A column from a small local block (masked: lanes 6-7 read as zeros, never written).
 LSLAM_TARGET_AVX512 inline __m512d loadColumn(const double* block, int c) {
   return _mm512_maskz_loadu_pd(kSixRows, block + 6 * c);
 }
 LSLAM_TARGET_AVX512 inline void storeColumn(double* block, int c, __m512d v) {
   _mm512_mask_storeu_pd(block + 6 * c, kSixRows, v);
+}
+
+// A column of the factor or of the update rows, as rows 0-3 and 4-5 (lanes 6-7 unspecified, never
+// stored): masked accesses to blocks that miss the cache made the row update as slow as the AVX2
+// form. (Masked inserts and extracts: GCC 12 warns of the plain ones' undefined pass-through.)
+LSLAM_TARGET_AVX512 inline __m512d loadPoolColumn(const double* block, int c) {
+  const double* p = block + 6 * c;
+  const __m512d low = _mm512_castpd256_pd512(_mm256_loadu_pd(p));
+  return _mm512_mask_insertf64x4(low, 0xFF, low, _mm256_castpd128_pd256(_mm_loadu_pd(p + 4)), 1);
+}
+LSLAM_TARGET_AVX512 inline void storePoolColumn(double* block, int c, __m512d v) {
+  double* p = block + 6 * c;
+  _mm256_storeu_pd(p, _mm512_maskz_extractf64x4_pd(0xF, v, 0));
+  _mm_storeu_pd(p + 4, _mm256_castpd256_pd128(_mm512_maskz_extractf64x4_pd(0xF, v, 1)));
 }
 
 // Lane `lane` of v in every lane (the zero-masking form: GCC 12 warns of the plain one's undefined
@@ -53,7 +68,7 @@ LSLAM_TARGET_AVX512 inline void reflectRowBlocks(const ReflectionCoefficients<6,
 #pragma GCC unroll 2
     for (int m = 0; m < M; ++m) {
 #pragma GCC unroll 6
-      for (int c = 0; c < 6; ++c) x[b][m][c] = loadColumn(w[b][m], c);
+      for (int c = 0; c < 6; ++c) x[b][m][c] = loadPoolColumn(w[b][m], c);
     }
   }
 #pragma GCC unroll 6
@@ -63,7 +78,7 @@ LSLAM_TARGET_AVX512 inline void reflectRowBlocks(const ReflectionCoefficients<6,
     for (int b = 0; b < B; ++b) {
       // As applyRowReflections: t = l_j + sum_m sum_c w_mc u_mc (per factor, products 3-5 apart,
       // then added), s = beta t, l_j -= s, w_mc -= s u_mc (fused).
-      const __m512d l = loadColumn(l_in[b], j);
+      const __m512d l = loadPoolColumn(l_in[b], j);
       __m512d t = l;
 #pragma GCC unroll 2
       for (int m = 0; m < M; ++m) {
@@ -76,7 +91,7 @@ LSLAM_TARGET_AVX512 inline void reflectRowBlocks(const ReflectionCoefficients<6,
         t = _mm512_add_pd(t, high);
       }
       const __m512d s = _mm512_mul_pd(_mm512_set1_pd(coefficient[6 * M]), t);
-      storeColumn(l_out[b], j, _mm512_sub_pd(l, s));
+      storePoolColumn(l_out[b], j, _mm512_sub_pd(l, s));
 #pragma GCC unroll 2
       for (int m = 0; m < M; ++m) {
 #pragma GCC unroll 6
@@ -91,7 +106,7 @@ LSLAM_TARGET_AVX512 inline void reflectRowBlocks(const ReflectionCoefficients<6,
 #pragma GCC unroll 2
     for (int m = 0; m < M; ++m) {
 #pragma GCC unroll 6
-      for (int c = 0; c < 6; ++c) storeColumn(w[b][m], c, x[b][m][c]);
+      for (int c = 0; c < 6; ++c) storePoolColumn(w[b][m], c, x[b][m][c]);
     }
   }
 }
