@@ -644,9 +644,12 @@ LSLAM_TARGET_AVX_FMA void subtractOuterProductsOfColumnsAvx(const Mat6* const* c
   }
 }
 
+// flatten: GCC does not inline the header template here of its own accord, and its out-of-line
+// copy (no FMA target) calls libm's fma for every multiply-add.
 template <int M>
-LSLAM_TARGET_AVX_FMA bool triangularizeRows6Avx(const Mat6& l, const Mat6* w, Mat6& l_new, Mat6* u,
-                                                Vec6& beta) {
+__attribute__((flatten)) LSLAM_TARGET_AVX_FMA bool triangularizeRows6Avx(const Mat6& l,
+                                                                         const Mat6* w, Mat6& l_new,
+                                                                         Mat6* u, Vec6& beta) {
   return triangularizeRows6<M>(l, w, l_new, u, beta);
 }
 

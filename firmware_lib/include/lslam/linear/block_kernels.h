@@ -10,6 +10,8 @@
 // add are two. They are chosen at run time (cpuHasAvxFma), so the host binary still runs on any
 // x86-64; a host without FMA computes the same bits through std::fma in software, only slower.
 // The Cortex-M7's FPU fuses in hardware (vfma.f64). Elsewhere cpuHasAvxFma() is false.
+// Hosts with AVX-512 (cpuHasAvx512) take 8-lane forms of the row update's two-factor reflections
+// and of its 6 x 6 triangularization, the same bits again.
 // Other block sizes have no AVX2 form, so no second form's bits to match: on x86-64 they take
 // Eigen's products and unfused multiply-adds, as std::fma without -mfma is a call into libm.
 #include <cmath>
@@ -173,8 +175,8 @@ inline void applyRowReflections(const Eigen::Matrix<double, D, D>* u,
 // Every sum in one fixed order, fused (multiplyAdd<6>), so that the AVX-512 form, which runs the
 // six rows as lanes, computes the same bits: sigma = sum of w_jc^2 per factor as two chains of
 // three (c = 0-2, 3-5) joined by an add, factors in order; u = w_j / v0 as w_j (1 / v0); each row's
-// t, s and update as in applyReflectionsToRows. Returns false if a diagonal entry of l' is not
-// positive and finite.
+// t, s and update as in applyReflectionsToRows. Returns false if a reflection's norm (l'(j, j)
+// before rounding) is not positive and finite: l and the rows together lack full rank.
 template <int M>
 inline bool triangularizeRows6(const Eigen::Matrix<double, 6, 6>& l,
                                const Eigen::Matrix<double, 6, 6>* w,

@@ -220,7 +220,8 @@ class IncrementalCholesky {
   // read, reflected and staged once, not twice.
   [[nodiscard]] Status addFactorRows(const FactorRows& first, const FactorRows& second);
   // Ends the row updates of this update: NotPositiveDefinite if an added column received none;
-  // else writes each rotated column's L(k,k)^-1 (once, however often the column was rotated).
+  // else, at one block size, writes each rotated column's L(k,k)^-1 (once, however often the
+  // column was rotated; mixed sizes write it at every rotation).
   [[nodiscard]] Status finishRowUpdate();
 
   // Moves the live columns to the front of the pool (no update may be in progress).
