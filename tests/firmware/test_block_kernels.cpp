@@ -106,12 +106,12 @@ void checkTriangularization(std::mt19937& rng, int n) {
   }
   Mat6 w[M];
   for (auto& block : w) block = randomBlock<6>(rng);
-  if (n % 7 == 0 && n % 5 != 0) {
-    // Row j of the rows zero and of l zero left of the diagonal: H_0 .. H_{j-1} leave it alone, so
-    // H_j is the identity.
-    const int j = (n / 7) % 6;
-    for (auto& block : w) block.row(j).setZero();
-    l.row(j).head(j).setZero();
+  // Some cases make reflection j the identity: row j of the rows zero and of l zero left of the
+  // diagonal, so H_0 .. H_{j-1} leave it alone. -1: none.
+  const int identity_row = n % 7 == 0 && n % 5 != 0 ? (n / 7) % 6 : -1;
+  if (identity_row >= 0) {
+    for (auto& block : w) block.row(identity_row).setZero();
+    l.row(identity_row).head(identity_row).setZero();
   }
   Mat6 l_new;
   Mat6 u[M];
@@ -122,7 +122,7 @@ void checkTriangularization(std::mt19937& rng, int n) {
   CHECK((l_new * l_new.transpose() - expected).cwiseAbs().maxCoeff() <
         1e-12 * (1.0 + expected.cwiseAbs().maxCoeff()));
   CHECK(l_new.diagonal().minCoeff() > 0.0);
-  if (n % 7 == 0 && n % 5 != 0) CHECK(beta((n / 7) % 6) == 0.0);
+  if (identity_row >= 0) CHECK(beta(identity_row) == 0.0);
   Mat6 x_l = l;
   Mat6 x_w[M];
   Mat6* x_w_of[M];

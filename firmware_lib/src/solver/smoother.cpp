@@ -1,6 +1,6 @@
 #include "lslam/solver/smoother.h"
 
-#include <new>
+#include <new>  // placement new only: the spread objects in this object's storage
 #include <type_traits>
 
 #include "lslam/models/pose_slam_2d.h"
@@ -118,8 +118,10 @@ Smoother<Model>::Smoother(const SmootherArrays<Model>& arrays, const FactorGraph
     // Placement new, allowed here: it builds the two objects in this object's own storage
     // (spare_storage_, spread_storage_), no heap, once, at construction; both are trivially
     // destructible. They exist only when the caller gives their memory.
-    spare_ = new (spare_storage_) Factor(withKinds(spread->factor, graph_.variableKinds()));
-    spread_ = new (spread_storage_) Spread(spread->reordering, graph_, *spare_, options_);
+    spare_ = new (spare_storage_)  // placement new into own storage, no heap: allowed (above)
+        Factor(withKinds(spread->factor, graph_.variableKinds()));
+    spread_ = new (spread_storage_)  // placement new into own storage, no heap: allowed (above)
+        Spread(spread->reordering, graph_, *spare_, options_);
   }
 }
 
