@@ -288,6 +288,37 @@ TEST_CASE("betweenErrorSE3 Jacobians match central differences") {
   CHECK(near_identity > kCases / 3);
 }
 
+TEST_CASE("linearizeBetweenSE3 is J^T Omega J and -J^T Omega e of the general products") {
+  std::mt19937 rng(kSeed + 9);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int i = 0; i < kCases; ++i) {
+    const SE3 xi = randomPose3(rng, i);
+    const SE3 xj = randomPose3(rng, i + 3);
+    const SE3 z = measurementFor(xi, xj, poseWithAngle(rng, residualAngle(rng, i)));
+    Mat6 a;  // a random symmetric positive definite information
+    for (int k = 0; k < 36; ++k) a(k / 6, k % 6) = u(rng);
+    const Mat6 omega = a * a.transpose() + 0.1 * Mat6::Identity();
+    CAPTURE(i);
+    Mat6 j_i;
+    Mat6 j_j;
+    const Vec6 e = betweenErrorSE3(xi, xj, z, &j_i, &j_j);
+    Mat6 ii;
+    Mat6 jj;
+    Mat6 ji;
+    Vec6 eta_i;
+    Vec6 eta_j;
+    CHECK(maxAbsDiff(lslam::linearizeBetweenSE3(xi, xj, z, omega, &ii, &jj, &ji, &eta_i, &eta_j),
+                     e) == 0.0);
+    const double scale = omega.norm() * (1.0 + j_i.norm() * j_i.norm());
+    CHECK(maxAbsDiff(ii, Mat6(j_i.transpose() * omega * j_i)) <= 1e-14 * scale);
+    CHECK(maxAbsDiff(jj, Mat6(j_j.transpose() * omega * j_j)) <= 1e-14 * scale);
+    CHECK(maxAbsDiff(ji, Mat6(j_j.transpose() * omega * j_i)) <= 1e-14 * scale);
+    const double scale_e = scale * (1.0 + e.norm());
+    CHECK(maxAbsDiff(eta_i, Vec6(-(j_i.transpose() * omega * e))) <= 1e-14 * scale_e);
+    CHECK(maxAbsDiff(eta_j, Vec6(-(j_j.transpose() * omega * e))) <= 1e-14 * scale_e);
+  }
+}
+
 TEST_CASE("priorErrorSE3 Jacobian matches central differences") {
   std::mt19937 rng(kSeed + 6);
   const SE3 identity;

@@ -20,6 +20,13 @@ namespace lslam {
 Vec6 betweenErrorSE3(const SE3& xi, const SE3& xj, const SE3& z, Mat6* J_e_xi = nullptr,
                      Mat6* J_e_xj = nullptr) noexcept;
 
+// The between factor's share of Lambda and eta: with J_i, J_j the Jacobians above and Omega the
+// information, ii = J_i^T Omega J_i, jj = J_j^T Omega J_j, ji = J_j^T Omega J_i, eta_i = -J_i^T
+// Omega e, eta_j = -J_j^T Omega e, computed over the Jacobians' block structure (a factor is
+// linearized at every full assembly). Returns e.
+Vec6 linearizeBetweenSE3(const SE3& xi, const SE3& xj, const SE3& z, const Mat6& information,
+                         Mat6* ii, Mat6* jj, Mat6* ji, Vec6* eta_i, Vec6* eta_j) noexcept;
+
 // Prior factor: z is the measured pose of x.
 // e = (t, v with w >= 0) of z^-1 * x.
 Vec6 priorErrorSE3(const SE3& x, const SE3& z, Mat6* J_e_x = nullptr) noexcept;
@@ -48,6 +55,11 @@ struct BetweenSE3Factor {
   static Vec6 error(const SE3& xi, const SE3& xj, const SE3& z, Mat6* J_e_xi,
                     Mat6* J_e_xj) noexcept {
     return betweenErrorSE3(xi, xj, z, J_e_xi, J_e_xj);
+  }
+  // The factor graph linearizes this kind through linearizeBetweenSE3.
+  static void linearize(const SE3& xi, const SE3& xj, const SE3& z, const Mat6& information,
+                        Mat6* ii, Mat6* jj, Mat6* ji, Vec6* eta_i, Vec6* eta_j) noexcept {
+    static_cast<void>(linearizeBetweenSE3(xi, xj, z, information, ii, jj, ji, eta_i, eta_j));
   }
   [[nodiscard]] static Status validate(const SE3& z, const Mat6& information) noexcept {
     return PriorSE3Factor::validate(z, information);
