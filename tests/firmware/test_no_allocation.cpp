@@ -1029,7 +1029,7 @@ std::vector<ModelStep<Model>> stream3D(int poses) {
           Mat6::Identity()));
     }
     // Landmark k / 4, first seen here, then seen again from the next three poses, each time where
-    // it is up to a few centimetres (grossly inconsistent observations drive Gauss-Newton off).
+    // it is up to 2 cm (grossly inconsistent observations drive Gauss-Newton off).
     if constexpr (Model::Variables::kSize == 2) {
       const Vec3 landmark = truth[static_cast<std::size_t>(k - k % 4)] * Vec3(2, 1, 0);
       if (k % 4 == 0) st.variables.push_back(Var::make(k / 4, Point3(landmark)));

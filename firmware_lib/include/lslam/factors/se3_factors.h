@@ -21,9 +21,9 @@ Vec6 betweenErrorSE3(const SE3& xi, const SE3& xj, const SE3& z, Mat6* J_e_xi = 
                      Mat6* J_e_xj = nullptr) noexcept;
 
 // The between factor's share of Lambda and eta: with J_i, J_j the Jacobians above and Omega the
-// information, ii = J_i^T Omega J_i, jj = J_j^T Omega J_j, ji = J_j^T Omega J_i, eta_i = -J_i^T
-// Omega e, eta_j = -J_j^T Omega e, computed over the Jacobians' block structure (a factor is
-// linearized at every full assembly). Returns e.
+// information, ii = J_i^T Omega J_i, jj = J_j^T Omega J_j, ji = J_j^T Omega J_i,
+// eta_i = -J_i^T Omega e and eta_j = -J_j^T Omega e, computed over the Jacobians' block structure
+// (a factor is linearized at every full assembly). Returns e.
 Vec6 linearizeBetweenSE3(const SE3& xi, const SE3& xj, const SE3& z, const Mat6& information,
                          Mat6* ii, Mat6* jj, Mat6* ji, Vec6* eta_i, Vec6* eta_j) noexcept;
 
