@@ -1,6 +1,6 @@
 #include "lslam/solver/smoother.h"
 
-#include <new>  // placement new only: the spread objects in this object's storage
+#include <new>  // allowed: placement new only, into this object's own storage (no heap)
 #include <type_traits>
 
 #include "lslam/models/pose_slam_2d.h"
