@@ -1,9 +1,10 @@
 // The block kernels (lslam/linear/block_kernels.h): the portable forms against dense Eigen
 // references (the block product, and the reflections of one and of two factors' rows as explicit
-// matrices), and the AVX forms (single and several source columns, reflections of one and of two
-// factors, in place and from a source, the back-substitution's column step; at D = 3 and D = 6)
-// bit for bit against the portable forms, and the 6 x 6 triangularization (portable, AVX2 and
-// AVX-512) against dense products, on many random cases from a fixed seed.
+// matrices, reflection by reflection and at D = 6 in the compact form), and the AVX forms (single
+// and several source columns, reflections of one and of two factors, in place and from a source,
+// the back-substitution's column step; at D = 3 and D = 6) bit for bit against the portable forms,
+// and the 6 x 6 triangularization (portable, AVX2 and AVX-512) against dense products, on many
+// random cases from a fixed seed.
 #include <doctest/doctest.h>
 
 #include <Eigen/Dense>
@@ -61,11 +62,25 @@ void checkReflections(std::mt19937& rng) {
   }
   const Eigen::Matrix<double, D, (M + 1)* D> reflected = x * denseReflections<D, M>(u, beta);
   const double tolerance = 1e-13 * (1.0 + reflected.cwiseAbs().maxCoeff());
+  auto check_against_dense = [&](const Eigen::Matrix<double, D, D>& l,
+                                 const Eigen::Matrix<double, D, D>* w) {
+    CHECK((l - reflected.template leftCols<D>()).cwiseAbs().maxCoeff() < tolerance);
+    for (int m = 0; m < M; ++m) {
+      CHECK((w[m] - reflected.template middleCols<D>(D * (m + 1))).cwiseAbs().maxCoeff() <
+            tolerance);
+    }
+  };
+  const auto x_l_in = x_l;
+  Eigen::Matrix<double, D, D> x_w_in[M];
+  for (int m = 0; m < M; ++m) x_w_in[m] = x_w[m];
   lslam::detail::applyRowReflections<D, M>(u, beta, x_l, x_w_of);
-  CHECK((x_l - reflected.template leftCols<D>()).cwiseAbs().maxCoeff() < tolerance);
-  for (int m = 0; m < M; ++m) {
-    CHECK((x_w[m] - reflected.template middleCols<D>(D * (m + 1))).cwiseAbs().maxCoeff() <
-          tolerance);
+  check_against_dense(x_l, x_w);
+  if constexpr (D == 6) {
+    x_l = x_l_in;
+    for (int m = 0; m < M; ++m) x_w[m] = x_w_in[m];
+    const lslam::detail::ReflectionOverlaps6<M> overlaps(u);
+    lslam::detail::applyCompactReflections6<M>(u, beta, overlaps, x_l, x_w_of);
+    check_against_dense(x_l, x_w);
   }
 }
 
@@ -132,6 +147,13 @@ void checkTriangularization(std::mt19937& rng, int n) {
   }
   lslam::detail::applyRowReflections<6, M>(u, beta, x_l, x_w_of);
   const double tolerance = 1e-12 * (1.0 + l_new.cwiseAbs().maxCoeff());
+  CHECK((x_l - l_new).cwiseAbs().maxCoeff() < tolerance);
+  for (const auto& block : x_w) CHECK(block.cwiseAbs().maxCoeff() < tolerance);
+  // The compact form (the row blocks') too.
+  x_l = l;
+  for (int m = 0; m < M; ++m) x_w[m] = w[m];
+  const lslam::detail::ReflectionOverlaps6<M> overlaps(u);
+  lslam::detail::applyCompactReflections6<M>(u, beta, overlaps, x_l, x_w_of);
   CHECK((x_l - l_new).cwiseAbs().maxCoeff() < tolerance);
   for (const auto& block : x_w) CHECK(block.cwiseAbs().maxCoeff() < tolerance);
 #if defined(__x86_64__)
@@ -354,11 +376,17 @@ void checkAvxReflections(std::mt19937& rng, const std::vector<Index>& rows,
     array.resize(num_rows);
     for (auto& x : array) x = randomBlock<D>(rng);
   }
+  // The portable form of the row blocks' reflections: the compact one at D = 6.
   auto reflect_expected = [&](std::vector<Block>& l, std::vector<Block>* x) {
     for (Index b = 1; b < size; ++b) {
       Block* x_of[M];
       for (int m = 0; m < M; ++m) x_of[m] = &x[m][rows[b]];
-      lslam::detail::applyRowReflections<D, M>(u, beta, l[b], x_of);
+      if constexpr (D == 6) {
+        const lslam::detail::ReflectionOverlaps6<M> overlaps(u);
+        lslam::detail::applyCompactReflections6<M>(u, beta, overlaps, l[b], x_of);
+      } else {
+        lslam::detail::applyRowReflections<D, M>(u, beta, l[b], x_of);
+      }
     }
   };
   auto arrays = [](std::vector<Block>* x, Block** of) {
@@ -402,49 +430,6 @@ void checkAvxReflections(std::mt19937& rng, const std::vector<Index>& rows,
   for (int m = 0; m < M; ++m) {
     for (std::size_t r = 0; r < num_rows; ++r) CHECK(sameBits<D>(w[m][r], w_expected[m][r]));
   }
-#if defined(__x86_64__)
-  // The AVX-512 form (two factors), where the CPU has it: the same staging from the same sources
-  // and W.
-  if constexpr (D == 6 && M == 2) {
-    if (lslam::detail::cpuHasAvx512()) {
-      std::vector<Block> w_512[M];
-      Block* w_512_of[M];
-      for (int m = 0; m < M; ++m) w_512[m] = w_expected[m];
-      arrays(w_512, w_512_of);
-      std::vector<Block> staged_512(rows.size(), randomBlock<D>(rng));
-      std::vector<Block> staged_512_expected = staged_512;
-      for (Index b = 1; b < size; ++b) {
-        staged_512_expected[b] = b < kept                       ? sources[b]
-                                 : source[b] == lslam::kNoIndex ? Block::Zero()
-                                                                : sources[source[b]];
-      }
-      reflect_expected(staged_512_expected, w_expected);
-      lslam::detail::applyRowReflectionsFromAvx512<M>(u, beta, sources.data(), source.data(), kept,
-                                                      staged_512.data(), rows.data(), size,
-                                                      w_512_of);
-      for (std::size_t b = 0; b < staged_512.size(); ++b) {
-        CHECK(sameBits<D>(staged_512[b], staged_512_expected[b]));
-      }
-      for (int m = 0; m < M; ++m) {
-        for (std::size_t r = 0; r < num_rows; ++r)
-          CHECK(sameBits<D>(w_512[m][r], w_expected[m][r]));
-      }
-      // In place.
-      std::vector<Block> in_place = staged_512_expected;
-      reflect_expected(staged_512_expected, w_expected);
-      lslam::detail::applyRowReflectionsFromAvx512<M>(u, beta, in_place.data(), nullptr, size,
-                                                      in_place.data(), rows.data(), size, w_512_of);
-      for (std::size_t b = 1; b < in_place.size(); ++b) {
-        CHECK(sameBits<D>(in_place[b], staged_512_expected[b]));
-      }
-      for (int m = 0; m < M; ++m) {
-        for (std::size_t r = 0; r < num_rows; ++r)
-          CHECK(sameBits<D>(w_512[m][r], w_expected[m][r]));
-      }
-    }
-  }
-#endif
-
   // The right-hand side's row, through the AVX-compiled instance of the portable form.
   using Row = Eigen::Matrix<double, 1, D>;
   Row d = randomBlock<D>(rng).row(0);
@@ -553,6 +538,5 @@ TEST_CASE("the AVX block kernels compute the portable forms' bits") {
   checkAvxKernels<3>();
 #if defined(__x86_64__)
   checkAvxKernels<6>();
-  if (!lslam::detail::cpuHasAvx512()) MESSAGE("skipped the AVX-512 forms: this CPU has none");
 #endif
 }

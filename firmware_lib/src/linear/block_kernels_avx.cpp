@@ -297,55 +297,6 @@ struct Lanes2 {
   LSLAM_TARGET_AVX_FMA static V add(V a, V b) { return _mm_add_pd(a, b); }
 };
 
-// One half (rows 0-3 or 4-5) of a 6 x 6 row block of applyRowReflectionsFromAvx: [l w[0] ..] H...
-// from l_in to l_out (which may be l_in), w in place. Only W stays in registers: reflection j reads
-// and writes column j of l alone, so it is loaded and stored there.
-template <typename L, int M>
-LSLAM_TARGET_AVX_FMA inline void reflectRowHalf6(const ReflectionCoefficients<6, M>& h,
-                                                 const double* l_in, double* l_out,
-                                                 double* const* w) {
-  using V = typename L::V;
-  V x[M][6];
-#pragma GCC unroll 2
-  for (int m = 0; m < M; ++m) {
-#pragma GCC unroll 6
-    for (int c = 0; c < 6; ++c) x[m][c] = L::load(w[m] + 6 * c + L::kFirstRow);
-  }
-#pragma GCC unroll 6
-  for (int j = 0; j < 6; ++j) {
-    // Per row, as applyRowReflections: t = l_j + sum_m sum_c w_mc u_mc (fused, m then c
-    // ascending), s = beta t, l_j -= s, w_mc -= s u_mc (fused).
-    const double* coefficient = h.of[j];
-    const V l = L::load(l_in + 6 * j + L::kFirstRow);
-    V t = l;
-#pragma GCC unroll 2
-    for (int m = 0; m < M; ++m) {
-      // As applyReflectionsToRows (kSplitSums): products 3-5 apart, then added.
-      const double* u = coefficient + 6 * m;
-      V high = L::mul(x[m][3], L::broadcast(u + 3));
-      high = L::fmadd(x[m][4], L::broadcast(u + 4), high);
-      high = L::fmadd(x[m][5], L::broadcast(u + 5), high);
-#pragma GCC unroll 3
-      for (int c = 0; c < 3; ++c) t = L::fmadd(x[m][c], L::broadcast(u + c), t);
-      t = L::add(t, high);
-    }
-    const V s = L::mul(L::broadcast(coefficient + 6 * M), t);
-    L::store(l_out + 6 * j + L::kFirstRow, L::sub(l, s));
-#pragma GCC unroll 2
-    for (int m = 0; m < M; ++m) {
-#pragma GCC unroll 6
-      for (int c = 0; c < 6; ++c) {
-        x[m][c] = L::fnmadd(s, L::broadcast(coefficient + 6 * m + c), x[m][c]);
-      }
-    }
-  }
-#pragma GCC unroll 2
-  for (int m = 0; m < M; ++m) {
-#pragma GCC unroll 6
-    for (int c = 0; c < 6; ++c) L::store(w[m] + 6 * c + L::kFirstRow, x[m][c]);
-  }
-}
-
 // Rows 4-5 of two row blocks in one 4-lane register (lanes 0-1: block p, 2-3: block q).
 LSLAM_TARGET_AVX_FMA inline __m256d loadBottomPair(const double* p, const double* q) {
   return _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(p)), _mm_loadu_pd(q), 1);
@@ -355,56 +306,112 @@ LSLAM_TARGET_AVX_FMA inline void storeBottomPair(double* p, double* q, __m256d v
   _mm_storeu_pd(q, _mm256_extractf128_pd(v, 1));
 }
 
-// reflectRowHalf6 on rows 4-5 of two row blocks at once, packed in 4-lane registers: each lane
-// takes the same operations as in the 2-lane form (the same bits), in half the instructions.
+// Two row blocks p and q of applyRowReflectionsFromAvx at D = 6, as three 4-lane groups: rows
+// 0-3 of p, rows 0-3 of q, and rows 4-5 of both (p in lanes 0-1). Per group the compact form's
+// three steps are small matrix products with the coefficients broadcast once for all three
+// groups: P = L + X U, then S row by row from P and the overlaps, then X -= S U^T. Each lane runs
+// applyCompactReflections6's operations on its row in that order (the same bits).
 template <int M>
-LSLAM_TARGET_AVX_FMA inline void reflectBottomPair6(const ReflectionCoefficients<6, M>& h,
-                                                    const double* const* l_in, double* const* l_out,
-                                                    double* const* w_p, double* const* w_q) {
-  __m256d x[M][6];
-#pragma GCC unroll 2
-  for (int m = 0; m < M; ++m) {
-#pragma GCC unroll 6
-    for (int c = 0; c < 6; ++c) x[m][c] = loadBottomPair(w_p[m] + 6 * c + 4, w_q[m] + 6 * c + 4);
+struct RowBlockPair6 {
+  const double* l_in[2];
+  double* l_out[2];
+  double* w[2][M];
+
+  // Group g's column k of W (rows 4-5 from `bottom`, packed once) and column j of L.
+  LSLAM_TARGET_AVX_FMA __m256d wColumn(int g, int k, const __m256d* bottom) const {
+    return g < 2 ? _mm256_loadu_pd(w[g][k / 6] + 6 * (k % 6)) : bottom[k];
   }
-#pragma GCC unroll 6
-  for (int j = 0; j < 6; ++j) {
-    const double* coefficient = h.of[j];
-    const __m256d l = loadBottomPair(l_in[0] + 6 * j + 4, l_in[1] + 6 * j + 4);
-    __m256d t = l;
-#pragma GCC unroll 2
-    for (int m = 0; m < M; ++m) {
-      const double* u = coefficient + 6 * m;
-      __m256d high = _mm256_mul_pd(x[m][3], _mm256_broadcast_sd(u + 3));
-      high = _mm256_fmadd_pd(x[m][4], _mm256_broadcast_sd(u + 4), high);
-      high = _mm256_fmadd_pd(x[m][5], _mm256_broadcast_sd(u + 5), high);
-#pragma GCC unroll 3
-      for (int c = 0; c < 3; ++c) t = _mm256_fmadd_pd(x[m][c], _mm256_broadcast_sd(u + c), t);
-      t = _mm256_add_pd(t, high);
-    }
-    const __m256d s = _mm256_mul_pd(_mm256_broadcast_sd(coefficient + 6 * M), t);
-    storeBottomPair(l_out[0] + 6 * j + 4, l_out[1] + 6 * j + 4, _mm256_sub_pd(l, s));
-#pragma GCC unroll 2
-    for (int m = 0; m < M; ++m) {
-#pragma GCC unroll 6
-      for (int c = 0; c < 6; ++c) {
-        x[m][c] = _mm256_fnmadd_pd(s, _mm256_broadcast_sd(coefficient + 6 * m + c), x[m][c]);
-      }
-    }
+  LSLAM_TARGET_AVX_FMA __m256d lColumn(int g, int j) const {
+    return g < 2 ? _mm256_loadu_pd(l_in[g] + 6 * j)
+                 : loadBottomPair(l_in[0] + 6 * j + 4, l_in[1] + 6 * j + 4);
   }
-#pragma GCC unroll 2
-  for (int m = 0; m < M; ++m) {
-#pragma GCC unroll 6
-    for (int c = 0; c < 6; ++c) storeBottomPair(w_p[m] + 6 * c + 4, w_q[m] + 6 * c + 4, x[m][c]);
-  }
-}
+};
 
 template <int M>
-LSLAM_TARGET_AVX_FMA inline void reflectRowBlock6(const ReflectionCoefficients<6, M>& h,
-                                                  const double* l_in, double* l_out,
-                                                  double* const* w) {
-  reflectRowHalf6<Lanes4, M>(h, l_in, l_out, w);
-  reflectRowHalf6<Lanes2, M>(h, l_in, l_out, w);
+LSLAM_TARGET_AVX_FMA inline void reflectRowBlockPair6(const ReflectionCoefficients<6, M>& h,
+                                                      const ReflectionOverlaps6<M>& overlaps,
+                                                      const RowBlockPair6<M>& io) {
+  constexpr int kInner = 6 * M;  // the W columns, k = 6 m + c
+  // Rows 4-5 of W packed once; the rest is read where it lies (the multiply-adds' memory operands).
+  __m256d bottom_w[kInner];
+#pragma GCC unroll 12
+  for (int k = 0; k < kInner; ++k) {
+    bottom_w[k] =
+        loadBottomPair(io.w[0][k / 6] + 6 * (k % 6) + 4, io.w[1][k / 6] + 6 * (k % 6) + 4);
+  }
+  // P = L + X U three columns at a time (nine accumulators), then those columns' S and L. In
+  // place (l_in == l_out) column j is read before it is written.
+  __m256d s[3][6];
+#pragma GCC unroll 2
+  for (int j0 = 0; j0 < 6; j0 += 3) {
+    __m256d p[3][3];
+#pragma GCC unroll 3
+    for (int g = 0; g < 3; ++g) {
+#pragma GCC unroll 3
+      for (int jj = 0; jj < 3; ++jj) p[g][jj] = io.lColumn(g, j0 + jj);
+    }
+#pragma GCC unroll 12
+    for (int k = 0; k < kInner; ++k) {
+      __m256d coefficient[3];
+#pragma GCC unroll 3
+      for (int jj = 0; jj < 3; ++jj) coefficient[jj] = _mm256_broadcast_sd(&h.of[j0 + jj][k]);
+#pragma GCC unroll 3
+      for (int g = 0; g < 3; ++g) {
+        const __m256d x = io.wColumn(g, k, bottom_w);
+#pragma GCC unroll 3
+        for (int jj = 0; jj < 3; ++jj) p[g][jj] = _mm256_fmadd_pd(x, coefficient[jj], p[g][jj]);
+      }
+    }
+#pragma GCC unroll 3
+    for (int jj = 0; jj < 3; ++jj) {
+      const int j = j0 + jj;
+      const __m256d beta = _mm256_broadcast_sd(&h.of[j][kInner]);
+#pragma GCC unroll 3
+      for (int g = 0; g < 3; ++g) {
+        __m256d t = p[g][jj];
+#pragma GCC unroll 5
+        for (int i = 0; i < j; ++i) {
+          t = _mm256_fnmadd_pd(s[g][i], _mm256_broadcast_sd(&overlaps.of[j][i]), t);
+        }
+        s[g][j] = _mm256_mul_pd(beta, t);
+      }
+      _mm256_storeu_pd(io.l_out[0] + 6 * j, _mm256_sub_pd(io.lColumn(0, j), s[0][j]));
+      _mm256_storeu_pd(io.l_out[1] + 6 * j, _mm256_sub_pd(io.lColumn(1, j), s[1][j]));
+      storeBottomPair(io.l_out[0] + 6 * j + 4, io.l_out[1] + 6 * j + 4,
+                      _mm256_sub_pd(io.lColumn(2, j), s[2][j]));
+    }
+  }
+  // X -= S U^T, three W columns at a time.
+#pragma GCC unroll 4
+  for (int k0 = 0; k0 < kInner; k0 += 3) {
+    __m256d x[3][3];
+#pragma GCC unroll 3
+    for (int g = 0; g < 3; ++g) {
+#pragma GCC unroll 3
+      for (int kk = 0; kk < 3; ++kk) x[g][kk] = io.wColumn(g, k0 + kk, bottom_w);
+    }
+#pragma GCC unroll 6
+    for (int j = 0; j < 6; ++j) {
+      __m256d coefficient[3];
+#pragma GCC unroll 3
+      for (int kk = 0; kk < 3; ++kk) coefficient[kk] = _mm256_broadcast_sd(&h.of[j][k0 + kk]);
+#pragma GCC unroll 3
+      for (int g = 0; g < 3; ++g) {
+#pragma GCC unroll 3
+        for (int kk = 0; kk < 3; ++kk) {
+          x[g][kk] = _mm256_fnmadd_pd(s[g][j], coefficient[kk], x[g][kk]);
+        }
+      }
+    }
+#pragma GCC unroll 3
+    for (int kk = 0; kk < 3; ++kk) {
+      const int m = (k0 + kk) / 6;
+      const int c = (k0 + kk) % 6;
+      _mm256_storeu_pd(io.w[0][m] + 6 * c, x[0][kk]);
+      _mm256_storeu_pd(io.w[1][m] + 6 * c, x[1][kk]);
+      storeBottomPair(io.w[0][m] + 6 * c + 4, io.w[1][m] + 6 * c + 4, x[2][kk]);
+    }
+  }
 }
 
 // Column c of a 6 x 6 block: rows 0-3 and rows 4-5.
@@ -446,32 +453,40 @@ LSLAM_TARGET_AVX_FMA inline void addTransposedProduct6(const double* b, const do
 
 }  // namespace
 
+// The overlaps with std::fma an instruction (flatten: see triangularizeRows6Avx).
+template <int M>
+__attribute__((flatten)) LSLAM_TARGET_AVX_FMA ReflectionOverlaps6<M> overlapsAvx(const Mat6* u) {
+  return ReflectionOverlaps6<M>(u);
+}
+
 template <int M>
 LSLAM_TARGET_AVX_FMA void applyRowReflectionsFromAvx(const Mat6* u, const Vec6& beta,
                                                      const Mat6* source_blocks, const Index* source,
                                                      Index kept, Mat6* blocks, const Index* rows,
                                                      Index size, Mat6* const* w) {
   const ReflectionCoefficients<6, M> h(u, beta);
+  const ReflectionOverlaps6<M> overlaps = overlapsAvx<M>(u);
   const ReflectionSources<6> input{source_blocks, source, kept};
-  // Two row blocks at a time: rows 0-3 of each, then rows 4-5 of both in one register.
   Index b = 1;
   for (; b + 1 < size; b += 2) {
-    const double* l_in[2] = {input(b), input(b + 1)};
-    double* l_out[2] = {blocks[b].data(), blocks[b + 1].data()};
-    double* w_p[M];
-    double* w_q[M];
+    RowBlockPair6<M> io{{input(b), input(b + 1)}, {blocks[b].data(), blocks[b + 1].data()}, {}};
     for (int m = 0; m < M; ++m) {
-      w_p[m] = w[m][rows[b]].data();
-      w_q[m] = w[m][rows[b + 1]].data();
+      io.w[0][m] = w[m][rows[b]].data();
+      io.w[1][m] = w[m][rows[b + 1]].data();
     }
-    reflectRowHalf6<Lanes4, M>(h, l_in[0], l_out[0], w_p);
-    reflectRowHalf6<Lanes4, M>(h, l_in[1], l_out[1], w_q);
-    reflectBottomPair6<M>(h, l_in, l_out, w_p, w_q);
+    reflectRowBlockPair6<M>(h, overlaps, io);
   }
-  if (b < size) {
-    double* w_data[M];
-    for (int m = 0; m < M; ++m) w_data[m] = w[m][rows[b]].data();
-    reflectRowBlock6<M>(h, input(b), blocks[b].data(), w_data);
+  if (b < size) {  // the odd one, paired with a zero block whose results are dropped
+    Mat6 spare_l;
+    Mat6 spare_w[M];
+    RowBlockPair6<M> io{
+        {input(b), ReflectionSources<6>::kZero}, {blocks[b].data(), spare_l.data()}, {}};
+    for (int m = 0; m < M; ++m) {
+      spare_w[m].setZero();
+      io.w[0][m] = w[m][rows[b]].data();
+      io.w[1][m] = spare_w[m].data();
+    }
+    reflectRowBlockPair6<M>(h, overlaps, io);
   }
 }
 

@@ -56,42 +56,57 @@ struct RowReflections {
   }
 };
 
+// L(r, k) for the rows r = rows[b], b >= 1, written to blocks[b]: source_blocks[b] for b < kept,
+// source_blocks[source[b]] beyond, zero where that is kNoIndex. In place: source_blocks == blocks,
+// kept == size.
+template <int D>
+void stageRows(const Eigen::Matrix<double, D, D>* source_blocks, const Index* source, Index kept,
+               Eigen::Matrix<double, D, D>* blocks, Index b) {
+  if (b < kept) {
+    if (source_blocks != blocks) blocks[b] = source_blocks[b];
+  } else if (source[b] != kNoIndex) {
+    blocks[b] = source_blocks[source[b]];
+  } else {
+    blocks[b].setZero();
+  }
+}
+
 // [L(r, k) W_0(r) ..] H_0 ... H_{D-1} for the rows r = rows[b], b >= 1, written to blocks[b] and
-// w[m][r]: L(r, k) is source_blocks[b] for b < kept and source_blocks[source[b]] beyond (zero
-// where that is kNoIndex). In place: source_blocks == blocks, kept == size.
+// w[m][r], L(r, k) read as stageRows says. At D = 6 in the compact form
+// (detail::applyCompactReflections6), its overlaps computed once for the column.
 template <int D, int M>
 void reflectRows(const RowReflections<D, D, M>& h, const Eigen::Matrix<double, D, D>* source_blocks,
                  const Index* source, Index kept, Eigen::Matrix<double, D, D>* blocks,
                  const Index* rows, Index size, Eigen::Matrix<double, D, D>* const* w) {
+  if constexpr (D == 6) {
 #if defined(__x86_64__)
-  // Two factors only: one factor's columns fit AVX2's registers, and its 8-lane form, though
-  // faster alone, made sphere2500's updates slower (1.3x its time); the cause is not known.
-  if constexpr (D == 6 && M == 2) {
-    if (detail::cpuHasAvx512()) {
-      detail::applyRowReflectionsFromAvx512<M>(h.u, h.beta, source_blocks, source, kept, blocks,
-                                               rows, size, w);
-      return;
-    }
-  }
-#endif
-  if constexpr (detail::kAvxForms<D>) {
     if (detail::cpuHasAvxFma()) {
       detail::applyRowReflectionsFromAvx<M>(h.u, h.beta, source_blocks, source, kept, blocks, rows,
                                             size, w);
       return;
     }
-  }
-  for (Index b = 1; b < size; ++b) {
-    if (b < kept) {
-      if (source_blocks != blocks) blocks[b] = source_blocks[b];
-    } else if (source[b] != kNoIndex) {
-      blocks[b] = source_blocks[source[b]];
-    } else {
-      blocks[b].setZero();
+#endif
+    const detail::ReflectionOverlaps6<M> overlaps(h.u);
+    for (Index b = 1; b < size; ++b) {
+      stageRows<D>(source_blocks, source, kept, blocks, b);
+      Eigen::Matrix<double, D, D>* x_w[M];
+      for (int m = 0; m < M; ++m) x_w[m] = &w[m][rows[b]];
+      detail::applyCompactReflections6<M>(h.u, h.beta, overlaps, blocks[b], x_w);
     }
-    Eigen::Matrix<double, D, D>* x_w[M];
-    for (int m = 0; m < M; ++m) x_w[m] = &w[m][rows[b]];
-    h.apply(blocks[b], x_w);
+  } else {
+    if constexpr (detail::kAvxForms<D>) {
+      if (detail::cpuHasAvxFma()) {
+        detail::applyRowReflectionsFromAvx<M>(h.u, h.beta, source_blocks, source, kept, blocks,
+                                              rows, size, w);
+        return;
+      }
+    }
+    for (Index b = 1; b < size; ++b) {
+      stageRows<D>(source_blocks, source, kept, blocks, b);
+      Eigen::Matrix<double, D, D>* x_w[M];
+      for (int m = 0; m < M; ++m) x_w[m] = &w[m][rows[b]];
+      h.apply(blocks[b], x_w);
+    }
   }
 }
 

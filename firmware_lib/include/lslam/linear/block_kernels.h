@@ -10,8 +10,8 @@
 // add are two. They are chosen at run time (cpuHasAvxFma), so the host binary still runs on any
 // x86-64; a host without FMA computes the same bits through std::fma in software, only slower.
 // The Cortex-M7's FPU fuses in hardware (vfma.f64). Elsewhere cpuHasAvxFma() is false.
-// Hosts with AVX-512 (cpuHasAvx512) take 8-lane forms of the row update's two-factor reflections
-// and of its 6 x 6 triangularization, the same bits again.
+// Hosts with AVX-512 (cpuHasAvx512) take an 8-lane form of the row update's 6 x 6
+// triangularization, the same bits again.
 // Other block sizes have no AVX2 form, so no second form's bits to match: on x86-64 they take
 // Eigen's products and unfused multiply-adds, as std::fma without -mfma is a call into libm.
 #include <cmath>
@@ -165,6 +165,66 @@ template <int D, int M, typename XL, typename XW>
 inline void applyRowReflections(const Eigen::Matrix<double, D, D>* u,
                                 const Eigen::Matrix<double, D, 1>& beta, XL& x_l, XW* const* x_w) {
   applyReflectionsToRows<D, D, M, D>(u, beta, x_l, x_w);
+}
+
+// The overlaps of the six reflections of a 6 x 6 column with M factors' rows (H_j = I - beta(j)
+// v_j v_j^T, v_j = e_j + [0; u[0].col(j); ..]): of[j][i] = v_i . v_j = sum_m u[m].col(i) .
+// u[m].col(j) for i < j (the e parts never meet), fused, m then c ascending, from zero. Computed
+// once per column, so every form of applyCompactReflections6 reads the same bits.
+template <int M>
+struct ReflectionOverlaps6 {
+  double of[6][6];  // [j][i], i < j
+
+  explicit ReflectionOverlaps6(const Eigen::Matrix<double, 6, 6>* u) {
+    for (int j = 0; j < 6; ++j) {
+      for (int i = 0; i < j; ++i) {
+        double sum = 0.0;
+        for (int m = 0; m < M; ++m) {
+          for (int c = 0; c < 6; ++c) sum = multiplyAdd<6>(u[m](c, i), u[m](c, j), sum);
+        }
+        of[j][i] = sum;
+      }
+    }
+  }
+};
+
+// [x_l x_w[0] .. x_w[M-1]] H_0 ... H_5 in place for the rows of 6 x 6 blocks (the row update at
+// D = 6), in the compact form: with x the row as it came in, H_0 .. H_{j-1} change its product
+// with v_j by -sum_{i<j} s_i (v_i . v_j), so per row
+//   p_j = x_l(j) + sum_m sum_c x_w[m](c) u[m](c, j)   (m, then c ascending)
+//   s_j = beta(j) (p_j - sum_{i<j} s_i overlaps(j, i))  (i ascending)
+//   x_l(j) -= s_j,  x_w[m](c) -= sum_j s_j u[m](c, j)  (j ascending)
+// every multiply-add fused. Unlike the reflection-by-reflection form the six products p_j and
+// the W updates are independent chains, which the AVX2 form runs as small matrix products
+// (about 1.1x the multiply-adds, without a reflection's latency between one and the next).
+template <int M, typename XL, typename XW>
+inline void applyCompactReflections6(const Eigen::Matrix<double, 6, 6>* u,
+                                     const Eigen::Matrix<double, 6, 1>& beta,
+                                     const ReflectionOverlaps6<M>& overlaps, XL& x_l,
+                                     XW* const* x_w) {
+  for (Eigen::Index r = 0; r < x_l.rows(); ++r) {
+    double x[M][6];  // the row in locals (see applyReflectionsToRows)
+    for (int m = 0; m < M; ++m) {
+      for (int c = 0; c < 6; ++c) x[m][c] = (*x_w[m])(r, c);
+    }
+    double s[6];
+    for (int j = 0; j < 6; ++j) {
+      double p = x_l(r, j);
+      for (int m = 0; m < M; ++m) {
+        for (int c = 0; c < 6; ++c) p = multiplyAdd<6>(x[m][c], u[m](c, j), p);
+      }
+      for (int i = 0; i < j; ++i) p = multiplyAdd<6>(-s[i], overlaps.of[j][i], p);
+      s[j] = beta(j) * p;
+      x_l(r, j) -= s[j];
+    }
+    for (int m = 0; m < M; ++m) {
+      for (int c = 0; c < 6; ++c) {
+        double y = x[m][c];
+        for (int j = 0; j < 6; ++j) y = multiplyAdd<6>(-s[j], u[m](c, j), y);
+        (*x_w[m])(r, c) = y;
+      }
+    }
+  }
 }
 
 // The row update's triangularization of one 6 x 6 column with M factors' rows (the uniform D = 6
@@ -337,10 +397,9 @@ constexpr bool cpuHasAvxFma() {
 }
 #endif
 
-// Whether this CPU also runs the AVX-512 forms (512-bit registers, 32 of them): the row update's
-// two-factor reflections and triangularization at D = 6, where a block's six rows fit one
-// register and two factors' W columns of two row blocks stay in registers (in AVX2's 16 they
-// spill). Same load and test as above.
+// Whether this CPU also runs the AVX-512 form (512-bit registers) of the row update's
+// triangularization at D = 6, where a block's six rows fit one register. Same load and test as
+// above.
 #if defined(__x86_64__)
 inline bool cpuHasAvx512() {
   return cpuHasAvxFma() && __builtin_cpu_supports("avx512f") != 0;
@@ -390,9 +449,10 @@ void multiplyByTransposedLowerAvx(Mat3* blocks, Index count, const Mat3& l);
 
 #if defined(__x86_64__)
 // The forms above for 6 x 6 blocks (x86-64 only), the same bits as the portable forms at D = 6:
-// a block's column is rows 0-3 in a 4-lane register and rows 4-5 in a 2-lane one. The
-// reflections work on rows 0-3 of a row block, then on rows 4-5 (rows do not mix), and keep only
-// the W columns in registers (column j of L is read and written by reflection j alone).
+// a block's column is rows 0-3 in a 4-lane register and rows 4-5 in a 2-lane one. The row
+// blocks' reflections are applyCompactReflections6 (the compact form), two row blocks at a time:
+// rows 0-3 of each and rows 4-5 of both make three full 4-lane groups. The right-hand side's row
+// keeps the reflection-by-reflection form (applyRowReflections).
 template <int M>
 LSLAM_TARGET_AVX_FMA void applyRowReflectionsFromAvx(const Mat6* u, const Vec6& beta,
                                                      const Mat6* source_blocks, const Index* source,
@@ -402,12 +462,6 @@ template <int M>
 LSLAM_TARGET_AVX_FMA void applyRowReflectionsToRowAvx(const Mat6* u, const Vec6& beta,
                                                       Eigen::Matrix<double, 1, 6>& x_l,
                                                       Eigen::Matrix<double, 1, 6>* const* x_w);
-// applyRowReflectionsFromAvx<2> at D = 6 in AVX-512 registers (when cpuHasAvx512()), the same
-// bits: each lane runs a row's operations in the same order. Instantiated for M = 2 only.
-template <int M>
-__attribute__((target("avx512f,avx2,fma"))) void applyRowReflectionsFromAvx512(
-    const Mat6* u, const Vec6& beta, const Mat6* source_blocks, const Index* source, Index kept,
-    Mat6* blocks, const Index* rows, Index size, Mat6* const* w);
 // triangularizeRows6<M> with the six rows in AVX-512 lanes (when cpuHasAvx512()), and the portable
 // form compiled for AVX2/FMA (std::fma an instruction, not a call into libm): the same bits.
 template <int M>
