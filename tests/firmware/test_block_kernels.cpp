@@ -109,8 +109,9 @@ using Vec6 = Eigen::Matrix<double, 6, 1>;
 
 // The 6 x 6 triangularization of [l w_0 ..]: l' lower-triangular with a positive diagonal and
 // l' l'^T = l l^T + sum_m w_m w_m^T (dense), the returned reflections take [l w] to [l' 0] (the
-// portable applyRowReflections, itself checked against explicit matrices above), and the AVX2 and
-// AVX-512 forms give the portable form's bits. Case n: l zero (an added column) every fifth, and
+// portable applyRowReflections, itself checked against explicit matrices above, and the compact
+// form of the row blocks, applyCompactReflections6), and the AVX2 and AVX-512 forms give the
+// portable form's bits. Case n: l zero (an added column) every fifth, and
 // rows of w zero (a reflection that is the identity) every seventh.
 template <int M>
 void checkTriangularization(std::mt19937& rng, int n) {
@@ -199,6 +200,9 @@ TEST_CASE("the 6 x 6 triangularization of the row update matches dense products 
     checkTriangularization<2>(rng, n);
   }
   checkRankDeficientTriangularization();
+#if defined(__x86_64__)
+  if (!lslam::detail::cpuHasAvx512()) MESSAGE("skipped the AVX-512 form: this CPU has none");
+#endif
 }
 
 TEST_CASE("the portable block kernels match dense products and explicit reflections") {

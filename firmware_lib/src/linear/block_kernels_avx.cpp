@@ -269,8 +269,8 @@ LSLAM_TARGET_AVX_FMA void subtractOuterProductsOfColumnsAvx(const Mat3* const* c
 
 namespace {
 
-// The operations of the 6 x 6 kernels on rows 0-3 (Lanes4) or rows 4-5 (Lanes2) of a column, so
-// that one template serves both halves.
+// The operations of the 6 x 6 block products on rows 0-3 (Lanes4) or rows 4-5 (Lanes2) of a
+// column, so that one template serves both halves.
 struct Lanes4 {
   using V = __m256d;
   static constexpr int kFirstRow = 0;
@@ -279,9 +279,6 @@ struct Lanes4 {
   LSLAM_TARGET_AVX_FMA static V broadcast(const double* p) { return _mm256_broadcast_sd(p); }
   LSLAM_TARGET_AVX_FMA static V fmadd(V a, V b, V c) { return _mm256_fmadd_pd(a, b, c); }
   LSLAM_TARGET_AVX_FMA static V fnmadd(V a, V b, V c) { return _mm256_fnmadd_pd(a, b, c); }
-  LSLAM_TARGET_AVX_FMA static V mul(V a, V b) { return _mm256_mul_pd(a, b); }
-  LSLAM_TARGET_AVX_FMA static V sub(V a, V b) { return _mm256_sub_pd(a, b); }
-  LSLAM_TARGET_AVX_FMA static V add(V a, V b) { return _mm256_add_pd(a, b); }
 };
 
 struct Lanes2 {
@@ -292,9 +289,6 @@ struct Lanes2 {
   LSLAM_TARGET_AVX_FMA static V broadcast(const double* p) { return _mm_loaddup_pd(p); }
   LSLAM_TARGET_AVX_FMA static V fmadd(V a, V b, V c) { return _mm_fmadd_pd(a, b, c); }
   LSLAM_TARGET_AVX_FMA static V fnmadd(V a, V b, V c) { return _mm_fnmadd_pd(a, b, c); }
-  LSLAM_TARGET_AVX_FMA static V mul(V a, V b) { return _mm_mul_pd(a, b); }
-  LSLAM_TARGET_AVX_FMA static V sub(V a, V b) { return _mm_sub_pd(a, b); }
-  LSLAM_TARGET_AVX_FMA static V add(V a, V b) { return _mm_add_pd(a, b); }
 };
 
 // Rows 4-5 of two row blocks in one 4-lane register (lanes 0-1: block p, 2-3: block q).
@@ -453,11 +447,15 @@ LSLAM_TARGET_AVX_FMA inline void addTransposedProduct6(const double* b, const do
 
 }  // namespace
 
+namespace {
+
 // The overlaps with std::fma an instruction (flatten: see triangularizeRows6Avx).
 template <int M>
 __attribute__((flatten)) LSLAM_TARGET_AVX_FMA ReflectionOverlaps6<M> overlapsAvx(const Mat6* u) {
   return ReflectionOverlaps6<M>(u);
 }
+
+}  // namespace
 
 template <int M>
 LSLAM_TARGET_AVX_FMA void applyRowReflectionsFromAvx(const Mat6* u, const Vec6& beta,

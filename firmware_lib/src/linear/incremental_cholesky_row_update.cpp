@@ -353,7 +353,8 @@ Status IncrementalCholesky<S...>::rowUpdateColumn(Index k, const Index* pattern,
                           &kept);
       reflectRows<D, M>(h, a_.blocks + old_start, source, kept, blocks, rows, size, w);
     }
-    // The D reflections per row block: D (2 M D^2 + 2 D) multiply-adds, ~(2 M + 1) block products.
+    // The D reflections per row block: about D (2 M D^2 + 2 D) multiply-adds (at D = 6 in the
+    // compact form D (2 M D^2 + 27)), ~(2 M + 1) block products.
     const std::int64_t products = (2 * M + 1) * static_cast<std::int64_t>(size - 1);
     Vector d_new;
     if (!rotateRightHandSide<M>(h, old.d, rhs, d_new)) return Status::NumericalOverflow;

@@ -98,7 +98,8 @@ inline void multiplyByTransposedLower(Eigen::Matrix<double, D, D>& b,
 }
 
 // Whether the reflections of the fused 6 x 6 kernels (K = 6) sum each factor's six products in two
-// chains (0-2 onto t, 3-5 apart, then added) instead of one: the AVX2 form does the same.
+// chains (0-2 onto t, 3-5 apart, then added) instead of one: a shorter dependency chain for the
+// right-hand side's row (the row blocks take applyCompactReflections6).
 template <int W, int K>
 inline constexpr bool kSplitSums = W == 6 && K == 6;
 
