@@ -319,6 +319,18 @@ struct RowBlockPair6 {
     return g < 2 ? _mm256_loadu_pd(l_in[g] + 6 * j)
                  : loadBottomPair(l_in[0] + 6 * j + 4, l_in[1] + 6 * j + 4);
   }
+  // Column j of L, or column k of W, of all three groups.
+  LSLAM_TARGET_AVX_FMA void storeLColumn(int j, const __m256d* v) const {
+    storeColumnOfGroups(l_out[0] + 6 * j, l_out[1] + 6 * j, v);
+  }
+  LSLAM_TARGET_AVX_FMA void storeWColumn(int k, const __m256d* v) const {
+    storeColumnOfGroups(w[0][k / 6] + 6 * (k % 6), w[1][k / 6] + 6 * (k % 6), v);
+  }
+  LSLAM_TARGET_AVX_FMA static void storeColumnOfGroups(double* p, double* q, const __m256d* v) {
+    _mm256_storeu_pd(p, v[0]);
+    _mm256_storeu_pd(q, v[1]);
+    storeBottomPair(p + 4, q + 4, v[2]);
+  }
 };
 
 template <int M>
@@ -369,10 +381,10 @@ LSLAM_TARGET_AVX_FMA inline void reflectRowBlockPair6(const ReflectionCoefficien
         }
         s[g][j] = _mm256_mul_pd(beta, t);
       }
-      _mm256_storeu_pd(io.l_out[0] + 6 * j, _mm256_sub_pd(io.lColumn(0, j), s[0][j]));
-      _mm256_storeu_pd(io.l_out[1] + 6 * j, _mm256_sub_pd(io.lColumn(1, j), s[1][j]));
-      storeBottomPair(io.l_out[0] + 6 * j + 4, io.l_out[1] + 6 * j + 4,
-                      _mm256_sub_pd(io.lColumn(2, j), s[2][j]));
+      __m256d l[3];
+#pragma GCC unroll 3
+      for (int g = 0; g < 3; ++g) l[g] = _mm256_sub_pd(io.lColumn(g, j), s[g][j]);
+      io.storeLColumn(j, l);
     }
   }
   // X -= S U^T, three W columns at a time.
@@ -399,11 +411,8 @@ LSLAM_TARGET_AVX_FMA inline void reflectRowBlockPair6(const ReflectionCoefficien
     }
 #pragma GCC unroll 3
     for (int kk = 0; kk < 3; ++kk) {
-      const int m = (k0 + kk) / 6;
-      const int c = (k0 + kk) % 6;
-      _mm256_storeu_pd(io.w[0][m] + 6 * c, x[0][kk]);
-      _mm256_storeu_pd(io.w[1][m] + 6 * c, x[1][kk]);
-      storeBottomPair(io.w[0][m] + 6 * c + 4, io.w[1][m] + 6 * c + 4, x[2][kk]);
+      const __m256d column[3] = {x[0][kk], x[1][kk], x[2][kk]};
+      io.storeWColumn(k0 + kk, column);
     }
   }
 }

@@ -14,6 +14,7 @@
 // factor of [Lambda eta; eta^T .], so [d(k)^T b^T] Q = [d'(k)^T b'^T] updates d on the same path.
 #include <cmath>
 #include <cstring>
+#include <type_traits>
 
 #include "lower_triangular.h"
 #include "lslam/linear/block_kernels.h"
@@ -71,6 +72,11 @@ void stageRows(const Eigen::Matrix<double, D, D>* source_blocks, const Index* so
   }
 }
 
+// Nothing to compute ahead of the reflections (block sizes other than 6).
+struct NoOverlaps {
+  explicit NoOverlaps(const void*) {}
+};
+
 // [L(r, k) W_0(r) ..] H_0 ... H_{D-1} for the rows r = rows[b], b >= 1, written to blocks[b] and
 // w[m][r], L(r, k) read as stageRows says. At D = 6 in the compact form
 // (detail::applyCompactReflections6), its overlaps computed once for the column.
@@ -78,33 +84,22 @@ template <int D, int M>
 void reflectRows(const RowReflections<D, D, M>& h, const Eigen::Matrix<double, D, D>* source_blocks,
                  const Index* source, Index kept, Eigen::Matrix<double, D, D>* blocks,
                  const Index* rows, Index size, Eigen::Matrix<double, D, D>* const* w) {
-  if constexpr (D == 6) {
-#if defined(__x86_64__)
+  if constexpr (detail::kAvxForms<D>) {
     if (detail::cpuHasAvxFma()) {
       detail::applyRowReflectionsFromAvx<M>(h.u, h.beta, source_blocks, source, kept, blocks, rows,
                                             size, w);
       return;
     }
-#endif
-    const detail::ReflectionOverlaps6<M> overlaps(h.u);
-    for (Index b = 1; b < size; ++b) {
-      stageRows<D>(source_blocks, source, kept, blocks, b);
-      Eigen::Matrix<double, D, D>* x_w[M];
-      for (int m = 0; m < M; ++m) x_w[m] = &w[m][rows[b]];
+  }
+  using Overlaps = std::conditional_t<D == 6, detail::ReflectionOverlaps6<M>, NoOverlaps>;
+  const Overlaps overlaps(h.u);
+  for (Index b = 1; b < size; ++b) {
+    stageRows<D>(source_blocks, source, kept, blocks, b);
+    Eigen::Matrix<double, D, D>* x_w[M];
+    for (int m = 0; m < M; ++m) x_w[m] = &w[m][rows[b]];
+    if constexpr (D == 6) {
       detail::applyCompactReflections6<M>(h.u, h.beta, overlaps, blocks[b], x_w);
-    }
-  } else {
-    if constexpr (detail::kAvxForms<D>) {
-      if (detail::cpuHasAvxFma()) {
-        detail::applyRowReflectionsFromAvx<M>(h.u, h.beta, source_blocks, source, kept, blocks,
-                                              rows, size, w);
-        return;
-      }
-    }
-    for (Index b = 1; b < size; ++b) {
-      stageRows<D>(source_blocks, source, kept, blocks, b);
-      Eigen::Matrix<double, D, D>* x_w[M];
-      for (int m = 0; m < M; ++m) x_w[m] = &w[m][rows[b]];
+    } else {
       h.apply(blocks[b], x_w);
     }
   }
