@@ -1068,10 +1068,11 @@ TEST_CASE_TEMPLATE(
 namespace {
 
 // Row updates alone for block size D: random factors on random columns, accumulated densely as
-// A^T A and A^T b; the factor must reproduce both. With `pairs`, factors also go two at a time
-// (addFactorRows(first, second)) in every arrangement of their paths: meeting at their first
-// column, meeting higher up, through columns an earlier factor of the same update staged, and in
-// different trees of a forest that never meet (a step sometimes adds an unconnected column).
+// A^T A and A^T b; the factor must reproduce both. With `pairs`, factors also go two and three at
+// a time (addFactorRows over a list) in every arrangement of their paths: meeting at their first
+// column, meeting higher up (three: two first, then the third, or all at once), through columns
+// an earlier factor of the same update staged, and in different trees of a forest that never meet
+// (a step sometimes adds an unconnected column).
 template <int D>
 void checkRowUpdatesForBlockSize(unsigned seed, bool pairs) {
   using BlockD = Eigen::Matrix<double, D, D>;
@@ -1118,8 +1119,13 @@ void checkRowUpdatesForBlockSize(unsigned seed, bool pairs) {
   auto columns = [](Index a, Index b) {  // a factor on a and b, or on a alone if they are one
     return a == b ? std::vector<Index>{a} : std::vector<Index>{a, b};
   };
-  std::uniform_int_distribution<int> arrangement(0, 4);
+  std::uniform_int_distribution<int> arrangement(0, 6);
   int pairs_added = 0;
+  int triples_added = 0;
+  auto add_together = [&](std::initializer_list<const FactorRows*> factors) {
+    std::vector<const FactorRows*> list(factors);
+    return chol.addFactorRows(list.data(), static_cast<int>(list.size()));
+  };
   for (Index v = 0; v < kColumns; ++v) {
     chol.beginUpdate(1, false);
     const int kind = v < 2 ? 0 : (pairs ? arrangement(rng) : 1);
@@ -1140,12 +1146,26 @@ void checkRowUpdatesForBlockSize(unsigned seed, bool pairs) {
       REQUIRE(chol.addFactorRows(first, factor(columns(a, older(v)))) == lslam::Status::Ok);
       REQUIRE(chol.addFactorRows(factor({v})) == lslam::Status::Ok);
       ++pairs_added;
-    } else {  // an unconnected new column, and a pair on older columns (perhaps other trees)
+    } else if (kind == 4) {  // an unconnected new column, and a pair on older columns (perhaps
+                             // other trees)
       const FactorRows& first = factor({v});
       REQUIRE(chol.addFactorRows(first, factor({older(v)})) == lslam::Status::Ok);
       const FactorRows& second = factor(columns(older(v), older(v)));
       REQUIRE(chol.addFactorRows(second, factor(columns(older(v), older(v)))) == lslam::Status::Ok);
       pairs_added += 2;
+    } else if (kind == 5) {  // three loop closures through the new column, staged by its prior
+      REQUIRE(chol.addFactorRows(factor({v})) == lslam::Status::Ok);
+      const FactorRows& first = factor({older(v), v});
+      const FactorRows& second = factor({older(v), v});
+      REQUIRE(add_together({&first, &second, &factor({v, older(v)})}) == lslam::Status::Ok);
+      ++triples_added;
+    } else {  // the new column with one of three, the other two on older columns (two may start
+              // at the same column, or lie in other trees)
+      const Index a = older(v);
+      const FactorRows& first = factor(columns(a, older(v)));
+      const FactorRows& second = factor({v, older(v)});
+      REQUIRE(add_together({&first, &second, &factor(columns(a, older(v)))}) == lslam::Status::Ok);
+      ++triples_added;
     }
     REQUIRE(chol.finishRowUpdate() == lslam::Status::Ok);
     chol.commit();
@@ -1160,7 +1180,10 @@ void checkRowUpdatesForBlockSize(unsigned seed, bool pairs) {
     CHECK((l * d - eta.head(D * n)).cwiseAbs().maxCoeff() <=
           1e-12 * (l.cwiseAbs().maxCoeff() * d.cwiseAbs().maxCoeff() + eta.cwiseAbs().maxCoeff()));
   }
-  if (pairs) CHECK(pairs_added > 10);
+  if (pairs) {
+    CHECK(pairs_added > 8);
+    CHECK(triples_added > 4);
+  }
 }
 
 }  // namespace
@@ -1173,7 +1196,7 @@ TEST_CASE("row updates for the other block sizes (2: points, 6: SE(3)) reproduce
   }
 }
 
-TEST_CASE("two factors' rows rotated together reproduce A^T A, A^T b (block sizes 2, 3, 6)") {
+TEST_CASE("two and three factors' rows rotated together reproduce A^T A, A^T b (sizes 2, 3, 6)") {
   for (unsigned seed = 910; seed < 930; ++seed) {
     CAPTURE(seed);
     checkRowUpdatesForBlockSize<2>(seed, true);

@@ -337,10 +337,12 @@ template <int M>
 LSLAM_TARGET_AVX_FMA inline void reflectRowBlockPair6(const ReflectionCoefficients<6, M>& h,
                                                       const ReflectionOverlaps6<M>& overlaps,
                                                       const RowBlockPair6<M>& io) {
-  constexpr int kInner = 6 * M;  // the W columns, k = 6 m + c
+  // The W columns, k = 6 m + c; the loops over them are unrolled whole up to M = 3 (an index
+  // left to run time costs a division per access).
+  constexpr int kInner = 6 * M;
   // Rows 4-5 of W packed once; the rest is read where it lies (the multiply-adds' memory operands).
   __m256d bottom_w[kInner];
-#pragma GCC unroll 12
+#pragma GCC unroll 18
   for (int k = 0; k < kInner; ++k) {
     bottom_w[k] =
         loadBottomPair(io.w[0][k / 6] + 6 * (k % 6) + 4, io.w[1][k / 6] + 6 * (k % 6) + 4);
@@ -356,7 +358,7 @@ LSLAM_TARGET_AVX_FMA inline void reflectRowBlockPair6(const ReflectionCoefficien
 #pragma GCC unroll 3
       for (int jj = 0; jj < 3; ++jj) p[g][jj] = io.lColumn(g, j0 + jj);
     }
-#pragma GCC unroll 12
+#pragma GCC unroll 18
     for (int k = 0; k < kInner; ++k) {
       __m256d coefficient[3];
 #pragma GCC unroll 3
@@ -388,7 +390,7 @@ LSLAM_TARGET_AVX_FMA inline void reflectRowBlockPair6(const ReflectionCoefficien
     }
   }
   // X -= S U^T, three W columns at a time.
-#pragma GCC unroll 4
+#pragma GCC unroll 6
   for (int k0 = 0; k0 < kInner; k0 += 3) {
     __m256d x[3][3];
 #pragma GCC unroll 3
@@ -675,17 +677,18 @@ __attribute__((flatten)) LSLAM_TARGET_AVX_FMA bool triangularizeRows6Avx(const M
   return triangularizeRows6<M>(l, w, l_new, u, beta);
 }
 
-// The reflections of one factor and of two at D = 6.
-template bool triangularizeRows6Avx<1>(const Mat6&, const Mat6*, Mat6&, Mat6*, Vec6&);
-template bool triangularizeRows6Avx<2>(const Mat6&, const Mat6*, Mat6&, Mat6*, Vec6&);
-template void applyRowReflectionsToRowAvx<1>(const Mat6*, const Vec6&, Eigen::Matrix<double, 1, 6>&,
-                                             Eigen::Matrix<double, 1, 6>* const*);
-template void applyRowReflectionsToRowAvx<2>(const Mat6*, const Vec6&, Eigen::Matrix<double, 1, 6>&,
-                                             Eigen::Matrix<double, 1, 6>* const*);
-template void applyRowReflectionsFromAvx<1>(const Mat6*, const Vec6&, const Mat6*, const Index*,
-                                            Index, Mat6*, const Index*, Index, Mat6* const*);
-template void applyRowReflectionsFromAvx<2>(const Mat6*, const Vec6&, const Mat6*, const Index*,
-                                            Index, Mat6*, const Index*, Index, Mat6* const*);
+// The reflections of one to three factors (kMaxJointFactors) at D = 6.
+#define LSLAM_INSTANTIATE_REFLECTIONS_6(M)                                                         \
+  template bool triangularizeRows6Avx<M>(const Mat6&, const Mat6*, Mat6&, Mat6*, Vec6&);           \
+  template void applyRowReflectionsToRowAvx<M>(const Mat6*, const Vec6&,                           \
+                                               Eigen::Matrix<double, 1, 6>&,                       \
+                                               Eigen::Matrix<double, 1, 6>* const*);               \
+  template void applyRowReflectionsFromAvx<M>(const Mat6*, const Vec6&, const Mat6*, const Index*, \
+                                              Index, Mat6*, const Index*, Index, Mat6* const*);
+LSLAM_INSTANTIATE_REFLECTIONS_6(1)
+LSLAM_INSTANTIATE_REFLECTIONS_6(2)
+LSLAM_INSTANTIATE_REFLECTIONS_6(3)
+#undef LSLAM_INSTANTIATE_REFLECTIONS_6
 
 #else
 
@@ -718,15 +721,17 @@ void subtractOuterProductsOfColumnsAvx(const Mat3* const*, Index, const Index*, 
 
 #endif
 
-// The reflections of one factor and of two, from either branch above.
-template void applyRowReflectionsToRowAvx<1>(const Mat3*, const Vec3&, Eigen::Matrix<double, 1, 3>&,
-                                             Eigen::Matrix<double, 1, 3>* const*);
-template void applyRowReflectionsToRowAvx<2>(const Mat3*, const Vec3&, Eigen::Matrix<double, 1, 3>&,
-                                             Eigen::Matrix<double, 1, 3>* const*);
-template void applyRowReflectionsFromAvx<1>(const Mat3*, const Vec3&, const Mat3*, const Index*,
-                                            Index, Mat3*, const Index*, Index, Mat3* const*);
-template void applyRowReflectionsFromAvx<2>(const Mat3*, const Vec3&, const Mat3*, const Index*,
-                                            Index, Mat3*, const Index*, Index, Mat3* const*);
+// The reflections of one to three factors (kMaxJointFactors), from either branch above.
+#define LSLAM_INSTANTIATE_REFLECTIONS_3(M)                                                         \
+  template void applyRowReflectionsToRowAvx<M>(const Mat3*, const Vec3&,                           \
+                                               Eigen::Matrix<double, 1, 3>&,                       \
+                                               Eigen::Matrix<double, 1, 3>* const*);               \
+  template void applyRowReflectionsFromAvx<M>(const Mat3*, const Vec3&, const Mat3*, const Index*, \
+                                              Index, Mat3*, const Index*, Index, Mat3* const*);
+LSLAM_INSTANTIATE_REFLECTIONS_3(1)
+LSLAM_INSTANTIATE_REFLECTIONS_3(2)
+LSLAM_INSTANTIATE_REFLECTIONS_3(3)
+#undef LSLAM_INSTANTIATE_REFLECTIONS_3
 
 }  // namespace detail
 }  // namespace lslam

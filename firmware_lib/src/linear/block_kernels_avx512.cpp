@@ -120,6 +120,7 @@ LSLAM_TARGET_AVX512 bool triangularizeRows6Avx512(const Mat6& l, const Mat6* w, 
 
 template bool triangularizeRows6Avx512<1>(const Mat6&, const Mat6*, Mat6&, Mat6*, Vec6&);
 template bool triangularizeRows6Avx512<2>(const Mat6&, const Mat6*, Mat6&, Mat6*, Vec6&);
+template bool triangularizeRows6Avx512<3>(const Mat6&, const Mat6*, Mat6&, Mat6*, Vec6&);
 
 #endif
 

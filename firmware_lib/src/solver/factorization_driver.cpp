@@ -288,9 +288,10 @@ bool FactorizationDriver<Graph, Factor>::factorReachesBack(Index f,
   return second != kNoIndex && position_of[second] < newest_committed;
 }
 
-// The factors that reach back (loop closures) go in pairs, each pair rotated together along the
-// part of their paths they share; the rest (odometry: the last two columns) one by one. With mixed
-// block sizes, or more than one added column, the seeding factors go first (see seedAddedColumns).
+// The factors that reach back (loop closures) go in groups of up to kMaxJointFactors, each group
+// rotated together along the parts of their paths they share; the rest (odometry: the last two
+// columns) one by one. With mixed block sizes, or more than one added column, the seeding factors
+// go first (see seedAddedColumns).
 template <class Graph, class Factor>
 Status FactorizationDriver<Graph, Factor>::addRowsOfAddedFactors(const Index* position_of,
                                                                  Index new_columns) {
@@ -306,8 +307,15 @@ Status FactorizationDriver<Graph, Factor>::addRowsOfAddedFactors(const Index* po
     typename Factor::Block rows[2];
     FactorRows rows_of;
   };
-  Whitened whitened[2];
-  int pending = 0;  // reaching-back factors whitened, waiting for a partner
+  Whitened whitened[kMaxJointFactors];
+  const FactorRows* group[kMaxJointFactors];
+  int pending = 0;  // reaching-back factors whitened, waiting for the group to fill
+  auto addPending = [&] {
+    const Status s =
+        pending == 1 ? factor_.addFactorRows(*group[0]) : factor_.addFactorRows(group, pending);
+    pending = 0;
+    return s;
+  };
   Index next_seed = 0;
   for (Index f = first_new_factor_; f < newFactorsEnd(); ++f) {
     if (next_seed < num_seeds && a_.last_list[next_seed] == f) {  // rotated in already
@@ -321,15 +329,13 @@ Status FactorizationDriver<Graph, Factor>::addRowsOfAddedFactors(const Index* po
     Status s = Status::Ok;
     if (!factorReachesBack(f, position_of)) {
       s = factor_.addFactorRows(w.rows_of);
-    } else if (pending == 0) {
-      pending = 1;
     } else {
-      s = factor_.addFactorRows(whitened[0].rows_of, w.rows_of);
-      pending = 0;
+      group[pending++] = &w.rows_of;
+      if (pending == kMaxJointFactors) s = addPending();
     }
     if (s != Status::Ok) return s;
   }
-  return pending == 1 ? factor_.addFactorRows(whitened[0].rows_of) : Status::Ok;
+  return pending > 0 ? addPending() : Status::Ok;
 }
 
 // An added column starts empty, and the first rows rotated into it must have its full rank: a

@@ -149,8 +149,8 @@ class SizedSmootherStorage {
       takeEach(bytes_, n(blocks), {&a.row_size});
     }
     takeEach(indices_, n(blocks), {&a.rows, &a.clique_entry});
-    takeEach(blocks_, n(vars),
-             {&a.diagonal, &a.staged_diagonal, &a.update_rows, &a.second_update_rows});
+    takeEach(blocks_, n(vars), {&a.diagonal, &a.staged_diagonal});
+    for (auto& update_rows : a.update_rows) takeEach(blocks_, n(vars), {&update_rows});
     takeEach(vectors_, n(vars), {&a.d, &a.staged_d});
     takeEach(bytes_, n(vars), {&a.needs_solve});
     takeEach(stamps_, n(vars), {&a.queued, &a.mark});

@@ -56,6 +56,11 @@
 
 namespace lslam {
 
+// The most added factors the row update rotates together in one pass (addFactorRows over a list).
+// Each takes an update-row array of max_columns blocks: more memory against fewer passes over the
+// path that a step's loop closures share.
+inline constexpr int kMaxJointFactors = 3;
+
 // The arrays an IncrementalCholesky works in, owned by whoever holds the memory (see
 // StaticCholeskyStorage). Sizes: pool arrays max_blocks; column arrays max_columns; the etree
 // child lists max_columns + 1 (the last entry is a virtual root above every tree of the forest).
@@ -106,10 +111,9 @@ struct CholeskyArrays {
   Index* rank_of = nullptr;       // max_columns
   Index* clique_start = nullptr;  // max_columns + 1
   Index* clique_entry = nullptr;  // max_blocks
-  // The row update (see addFactorRows): the update rows' block at each column position, of the
-  // factor taken alone or the first of two, and of the second of two.
-  Block* update_rows = nullptr;         // max_columns
-  Block* second_update_rows = nullptr;  // max_columns
+  // The row update (see addFactorRows): the update rows' block at each column position, one array
+  // for each of the factors rotated together (the first also for a factor taken alone).
+  Block* update_rows[kMaxJointFactors] = {};  // max_columns each
   // The back-substitution's solution by column position, detail::kSolutionStride<D> doubles per
   // column (padding zero): max_columns * detail::kSolutionStride<D>.
   double* solution = nullptr;
@@ -215,9 +219,11 @@ class IncrementalCholesky {
     Vector rhs;
   };
   [[nodiscard]] Status addFactorRows(const FactorRows& factor);
-  // Two factors at once, the same result up to rounding: where their paths meet, both are rotated
-  // into each column of the shared path in one pass (a rank-2D update), so that path's columns are
-  // read, reflected and staged once, not twice.
+  // Up to kMaxJointFactors factors at once, the same result up to rounding: each is rotated alone
+  // until its path meets another's; from the column where they meet, together, in one pass (a
+  // rank-mD update for m factors), so that the shared path's columns are read, reflected and
+  // staged once, not once per factor.
+  [[nodiscard]] Status addFactorRows(const FactorRows* const* factors, int count);
   [[nodiscard]] Status addFactorRows(const FactorRows& first, const FactorRows& second);
   // Ends the row updates of this update: NotPositiveDefinite if an added column received none;
   // else, at one block size, writes each rotated column's L(k,k)^-1 (once, however often the
@@ -376,8 +382,16 @@ class IncrementalCholesky {
   template <int M>
   [[nodiscard]] Status rotateNextColumn(const Index*& rest, Index& rest_size, Block* const* w,
                                         Vector* rhs);
-  Index uniteRows(const Index* first, Index first_size, const Index* second, Index second_size,
-                  Index* united);
+  // Factors rotated together from their rest[0] on (see addFactorRows over a list).
+  struct RowGroup {
+    const Index* rest;
+    Index size;
+    int count;
+    Block* w[kMaxJointFactors];
+    Vector rhs[kMaxJointFactors];
+  };
+  [[nodiscard]] Status rotateGroupColumn(RowGroup& group);
+  void uniteGroups(RowGroup* const* groups, int count, Index* united);
   template <int M>
   [[nodiscard]] Status rowUpdateColumn(Index k, const Index* pattern, Index pattern_size,
                                        Block* const* w, Vector* rhs);
@@ -492,8 +506,7 @@ class StaticCholeskyStorageFor<BlockSizes<S...>, MaxColumns, MaxBlocks, MaxValue
     a.rank_of = rank_of_;
     a.clique_start = clique_start_;
     a.clique_entry = clique_entry_;
-    a.update_rows = update_rows_;
-    a.second_update_rows = second_update_rows_;
+    for (int m = 0; m < kMaxJointFactors; ++m) a.update_rows[m] = update_rows_[m];
     a.solution = solution_;
     return a;
   }
@@ -530,8 +543,7 @@ class StaticCholeskyStorageFor<BlockSizes<S...>, MaxColumns, MaxBlocks, MaxValue
   Index rank_of_[MaxColumns];
   Index clique_start_[MaxColumns + 1];
   Index clique_entry_[MaxBlocks];
-  Block update_rows_[MaxColumns];
-  Block second_update_rows_[MaxColumns];
+  Block update_rows_[kMaxJointFactors][MaxColumns];
   alignas(32) double solution_[MaxColumns * detail::kSolutionStride<D>];
 };
 
