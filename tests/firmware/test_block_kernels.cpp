@@ -486,8 +486,8 @@ void checkSupernodeProducts(std::mt19937& rng, const std::vector<Index>& rows,
   for (std::size_t p = 0; p < target.size(); ++p) CHECK(sameBits<D>(target[p], multi_expected[p]));
 }
 
-// The AVX block products (one source column, and several) and reflections against the portable
-// forms, bit for bit, and the block products against the dense product.
+// The AVX block products (one source column, and several) and reflections (one to three factors)
+// against the portable forms, bit for bit, and the block products against the dense product.
 template <int D>
 void checkAvxKernels() {
   using Block = Eigen::Matrix<double, D, D>;
@@ -529,6 +529,7 @@ void checkAvxKernels() {
     checkSupernodeProducts<D>(rng, rows, target_rows, first, size, n, target);
     checkAvxReflections<D, 1>(rng, rows, blocks, target_rows.size(), n);
     checkAvxReflections<D, 2>(rng, rows, blocks, target_rows.size(), n);
+    checkAvxReflections<D, 3>(rng, rows, blocks, target_rows.size(), n);
   }
 }
 
