@@ -677,7 +677,7 @@ __attribute__((flatten)) LSLAM_TARGET_AVX_FMA bool triangularizeRows6Avx(const M
   return triangularizeRows6<M>(l, w, l_new, u, beta);
 }
 
-// The reflections of one to three factors (kMaxJointFactors) at D = 6.
+// The reflections of one to three factors (kMaxJointFactors, at one block size) at D = 6.
 #define LSLAM_INSTANTIATE_REFLECTIONS_6(M)                                                         \
   template bool triangularizeRows6Avx<M>(const Mat6&, const Mat6*, Mat6&, Mat6*, Vec6&);           \
   template void applyRowReflectionsToRowAvx<M>(const Mat6*, const Vec6&,                           \
@@ -721,7 +721,8 @@ void subtractOuterProductsOfColumnsAvx(const Mat3* const*, Index, const Index*, 
 
 #endif
 
-// The reflections of one to three factors (kMaxJointFactors), from either branch above.
+// The reflections of one to three factors (kMaxJointFactors, at one block size), from either
+// branch above.
 #define LSLAM_INSTANTIATE_REFLECTIONS_3(M)                                                         \
   template void applyRowReflectionsToRowAvx<M>(const Mat3*, const Vec3&,                           \
                                                Eigen::Matrix<double, 1, 3>&,                       \

@@ -204,9 +204,9 @@ Status IncrementalCholesky<S...>::addFactorRows(const FactorRows& first, const F
 // column setup instead of two). A step's loop closures often meet low in the dense top.
 template <int... S>
 Status IncrementalCholesky<S...>::addFactorRows(const FactorRows* const* factors, int count) {
-  LSLAM_ASSERT(in_update_ && !full_ && count > 0 && count <= kMaxJointFactors);
+  LSLAM_ASSERT(in_update_ && !full_ && count > 0 && count <= kJointFactors);
   if (row_update_mark_ == 0) row_update_mark_ = nextMark();
-  RowGroup groups[kMaxJointFactors];
+  RowGroup groups[kJointFactors];
   Index* pattern = a_.scratch;
   for (int m = 0; m < count; ++m) {
     LSLAM_ASSERT(factors[m]->count > 0);
@@ -224,7 +224,7 @@ Status IncrementalCholesky<S...>::addFactorRows(const FactorRows* const* factors
     for (int g = 1; g < live; ++g) {
       if (groups[g].rest[0] < groups[lowest].rest[0]) lowest = g;
     }
-    RowGroup* meeting[kMaxJointFactors] = {&groups[lowest]};
+    RowGroup* meeting[kJointFactors] = {&groups[lowest]};
     int met = 1;
     for (int g = 0; g < live; ++g) {
       if (g != lowest && groups[g].rest[0] == groups[lowest].rest[0]) meeting[met++] = &groups[g];
@@ -254,11 +254,13 @@ Status IncrementalCholesky<S...>::rotateGroupColumn(RowGroup& group) {
   switch (group.count) {
     case 1:
       return rotateNextColumn<1>(group.rest, group.size, group.w, group.rhs);
-    case 2:
-      return rotateNextColumn<2>(group.rest, group.size, group.w, group.rhs);
     default:
-      LSLAM_ASSERT(group.count == 3);
-      return rotateNextColumn<3>(group.rest, group.size, group.w, group.rhs);
+      if constexpr (kJointFactors == 3) {
+        if (group.count == 3)
+          return rotateNextColumn<3>(group.rest, group.size, group.w, group.rhs);
+      }
+      LSLAM_ASSERT(group.count == 2);
+      return rotateNextColumn<2>(group.rest, group.size, group.w, group.rhs);
   }
 }
 
@@ -268,8 +270,8 @@ Status IncrementalCholesky<S...>::rotateGroupColumn(RowGroup& group) {
 // to zero.
 template <int... S>
 void IncrementalCholesky<S...>::uniteGroups(RowGroup* const* groups, int count, Index* united) {
-  static_assert(kMaxJointFactors <= 3, "rotateGroupColumn dispatches up to three factors");
-  Index next[kMaxJointFactors] = {};
+  static_assert(kJointFactors <= 3, "rotateGroupColumn dispatches up to three factors");
+  Index next[kJointFactors] = {};
   Index size = 0;
   for (;;) {
     Index row = kNoIndex;
@@ -291,7 +293,7 @@ void IncrementalCholesky<S...>::uniteGroups(RowGroup* const* groups, int count, 
   RowGroup& into = *groups[0];
   for (int g = 1; g < count; ++g) {
     for (int m = 0; m < groups[g]->count; ++m) {
-      LSLAM_ASSERT(into.count < kMaxJointFactors);
+      LSLAM_ASSERT(into.count < kJointFactors);
       into.w[into.count] = groups[g]->w[m];
       into.rhs[into.count] = groups[g]->rhs[m];
       ++into.count;

@@ -288,7 +288,7 @@ bool FactorizationDriver<Graph, Factor>::factorReachesBack(Index f,
   return second != kNoIndex && position_of[second] < newest_committed;
 }
 
-// The factors that reach back (loop closures) go in groups of up to kMaxJointFactors, each group
+// The factors that reach back (loop closures) go in groups of up to kJointFactors, each group
 // rotated together along the parts of their paths they share; the rest (odometry: the last two
 // columns) one by one. With mixed block sizes, or more than one added column, the seeding factors
 // go first (see seedAddedColumns).
@@ -307,8 +307,8 @@ Status FactorizationDriver<Graph, Factor>::addRowsOfAddedFactors(const Index* po
     typename Factor::Block rows[2];
     FactorRows rows_of;
   };
-  Whitened whitened[kMaxJointFactors];
-  const FactorRows* group[kMaxJointFactors];
+  Whitened whitened[Factor::kJointFactors];
+  const FactorRows* group[Factor::kJointFactors];
   int pending = 0;  // reaching-back factors whitened, waiting for the group to fill
   auto addPending = [&] {
     const Status s =
@@ -331,7 +331,7 @@ Status FactorizationDriver<Graph, Factor>::addRowsOfAddedFactors(const Index* po
       s = factor_.addFactorRows(w.rows_of);
     } else {
       group[pending++] = &w.rows_of;
-      if (pending == kMaxJointFactors) s = addPending();
+      if (pending == Factor::kJointFactors) s = addPending();
     }
     if (s != Status::Ok) return s;
   }

@@ -60,6 +60,10 @@ namespace lslam {
 // Each takes an update-row array of max_columns blocks: more memory against fewer passes over the
 // path that a step's loop closures share.
 inline constexpr int kMaxJointFactors = 3;
+// At mixed block sizes two: their portable kernels (the Cortex-M7's too) take more instructions
+// for three factors together than for a pair and a single, and the host gains nothing.
+template <int... S>
+inline constexpr int kJointFactorsOf = BlockSizes<S...>::kUniform ? kMaxJointFactors : 2;
 
 // The arrays an IncrementalCholesky works in, owned by whoever holds the memory (see
 // StaticCholeskyStorage). Sizes: pool arrays max_blocks; column arrays max_columns; the etree
@@ -67,6 +71,7 @@ inline constexpr int kMaxJointFactors = 3;
 template <int... S>
 struct CholeskyArrays {
   static constexpr int D = BlockSizes<S...>::kMax;
+  static constexpr int kJointFactors = kJointFactorsOf<S...>;
   using Block = Eigen::Matrix<double, D, D>;
   using Vector = Eigen::Matrix<double, D, 1>;
 
@@ -113,7 +118,7 @@ struct CholeskyArrays {
   Index* clique_entry = nullptr;  // max_blocks
   // The row update (see addFactorRows): the update rows' block at each column position, one array
   // for each of the factors rotated together (the first also for a factor taken alone).
-  Block* update_rows[kMaxJointFactors] = {};  // max_columns each
+  Block* update_rows[kJointFactors] = {};  // max_columns each
   // The back-substitution's solution by column position, detail::kSolutionStride<D> doubles per
   // column (padding zero): max_columns * detail::kSolutionStride<D>.
   double* solution = nullptr;
@@ -132,6 +137,7 @@ class IncrementalCholesky {
   using Sizes = BlockSizes<S...>;
   static constexpr int D = Sizes::kMax;  // the largest block size
   static constexpr bool kUniform = Sizes::kUniform;
+  static constexpr int kJointFactors = kJointFactorsOf<S...>;
   using Block = Eigen::Matrix<double, D, D>;
   using Vector = Eigen::Matrix<double, D, 1>;
 
@@ -219,7 +225,7 @@ class IncrementalCholesky {
     Vector rhs;
   };
   [[nodiscard]] Status addFactorRows(const FactorRows& factor);
-  // Up to kMaxJointFactors factors at once, the same result up to rounding: each is rotated alone
+  // Up to kJointFactors factors at once, the same result up to rounding: each is rotated alone
   // until its path meets another's; from the column where they meet, together, in one pass (a
   // rank-mD update for m factors), so that the shared path's columns are read, reflected and
   // staged once, not once per factor.
@@ -387,8 +393,8 @@ class IncrementalCholesky {
     const Index* rest;
     Index size;
     int count;
-    Block* w[kMaxJointFactors];
-    Vector rhs[kMaxJointFactors];
+    Block* w[kJointFactors];
+    Vector rhs[kJointFactors];
   };
   [[nodiscard]] Status rotateGroupColumn(RowGroup& group);
   void uniteGroups(RowGroup* const* groups, int count, Index* united);
@@ -460,6 +466,7 @@ class StaticCholeskyStorageFor<BlockSizes<S...>, MaxColumns, MaxBlocks, MaxValue
  public:
   static constexpr int D = BlockSizes<S...>::kMax;
   static constexpr bool kUniform = BlockSizes<S...>::kUniform;
+  static constexpr int kJointFactors = kJointFactorsOf<S...>;
   using Block = Eigen::Matrix<double, D, D>;
   using Vector = Eigen::Matrix<double, D, 1>;
   static_assert(MaxColumns > 0 && MaxBlocks >= MaxColumns, "capacities");
@@ -506,7 +513,7 @@ class StaticCholeskyStorageFor<BlockSizes<S...>, MaxColumns, MaxBlocks, MaxValue
     a.rank_of = rank_of_;
     a.clique_start = clique_start_;
     a.clique_entry = clique_entry_;
-    for (int m = 0; m < kMaxJointFactors; ++m) a.update_rows[m] = update_rows_[m];
+    for (int m = 0; m < kJointFactors; ++m) a.update_rows[m] = update_rows_[m];
     a.solution = solution_;
     return a;
   }
@@ -543,7 +550,7 @@ class StaticCholeskyStorageFor<BlockSizes<S...>, MaxColumns, MaxBlocks, MaxValue
   Index rank_of_[MaxColumns];
   Index clique_start_[MaxColumns + 1];
   Index clique_entry_[MaxBlocks];
-  Block update_rows_[kMaxJointFactors][MaxColumns];
+  Block update_rows_[kJointFactors][MaxColumns];
   alignas(32) double solution_[MaxColumns * detail::kSolutionStride<D>];
 };
 
