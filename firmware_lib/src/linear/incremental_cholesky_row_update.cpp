@@ -229,21 +229,15 @@ Status IncrementalCholesky<S...>::addFactorRows(const FactorRows* const* factors
     for (int g = 0; g < live; ++g) {
       if (g != lowest && groups[g].rest[0] == groups[lowest].rest[0]) meeting[met++] = &groups[g];
     }
-    if (met > 1) {
-      // The united rows go to top_order, which the rotation below leaves at once for the column's
-      // structure, so no other group's rest is ever there.
-      uniteGroups(meeting, met, a_.top_order);
-      for (int g = live - 1; g >= 0; --g) {  // the merged groups leave the list
-        if (groups[g].size == 0) groups[g] = groups[--live];
-      }
-      lowest = 0;
-      for (int g = 1; g < live; ++g) {
-        if (groups[g].rest == a_.top_order) lowest = g;
-      }
-    }
+    // The united rows go to top_order, which the rotation below leaves at once for the column's
+    // structure, so no other group's rest is ever there.
+    if (met > 1) uniteGroups(meeting, met, a_.top_order);
     const Status s = rotateGroupColumn(groups[lowest]);
     if (s != Status::Ok) return s;
-    if (groups[lowest].size == 0) groups[lowest] = groups[--live];
+    // Groups merged into another (uniteGroups empties them) or at their root leave the list.
+    for (int g = live - 1; g >= 0; --g) {
+      if (groups[g].size == 0) groups[g] = groups[--live];
+    }
   }
   return Status::Ok;
 }
