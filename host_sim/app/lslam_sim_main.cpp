@@ -19,6 +19,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <unordered_set>
 #include <vector>
 
 #include "host_sim/chi2.h"
@@ -301,6 +302,22 @@ IncrementalOptions incrementalOptions(const RunArgs& args) {
   return options;
 }
 
+// The g2o id of each landmark key: its own where no pose has it, else every landmark id moves past
+// the largest pose id (iSAM files number poses and points apart; g2o has one id space).
+std::int64_t landmarkIdOffset(const std::vector<VariableKey>& keys) {
+  std::unordered_set<std::int64_t> pose_ids;
+  std::int64_t max_pose_id = -1;
+  for (const VariableKey& key : keys) {
+    if (key.role != VariableRole::Pose) continue;
+    pose_ids.insert(key.id);
+    max_pose_id = std::max(max_pose_id, key.id);
+  }
+  for (const VariableKey& key : keys) {
+    if (key.role == VariableRole::Landmark && pose_ids.count(key.id) != 0) return max_pose_id + 1;
+  }
+  return 0;
+}
+
 // The model estimate with every measurement, in g2o records, the anchor as the FIX.
 void writeModelEstimate(const std::string& path, const ModelDataset& d, const ModelRun& run) {
   ModelDataset out;
@@ -312,14 +329,28 @@ void writeModelEstimate(const std::string& path, const ModelDataset& d, const Mo
   std::sort(keys.begin(), keys.end(), [](const VariableKey& a, const VariableKey& b) {
     return a.role != b.role ? a.role == VariableRole::Pose : a.id < b.id;
   });
+  const std::int64_t offset = landmarkIdOffset(keys);
+  if (offset != 0) {
+    std::fprintf(stderr,
+                 "lslam-sim: %s: poses and landmarks share ids; landmark ids written + %lld\n",
+                 path.c_str(), static_cast<long long>(offset));
+  }
+  const auto g2oKey = [offset](VariableKey key) {
+    if (key.role == VariableRole::Landmark) key.id += offset;
+    return key;
+  };
   for (const VariableKey& key : keys) {
-    out.vertices.push_back(ModelVertex{key, kinds.at(key), run.estimate.at(key), 0});
+    out.vertices.push_back(ModelVertex{g2oKey(key), kinds.at(key), run.estimate.at(key), 0});
   }
   // g2o records: an iSAM file's information goes over as the solver took it, in g2o's error
   // coordinates (solverInformation), so that the file reads back as the problem solved.
   out.factors = d.factors;
-  for (ModelFactor& f : out.factors) f.information = solverInformation(d, f);
-  if (run.anchor.id >= 0) out.fixed = {run.anchor};
+  for (ModelFactor& f : out.factors) {
+    f.information = solverInformation(d, f);
+    f.first = g2oKey(f.first);
+    f.second = g2oKey(f.second);
+  }
+  if (run.anchor.id >= 0) out.fixed = {g2oKey(run.anchor)};
   writeModelG2oFile(path, out);
 }
 

@@ -81,3 +81,28 @@ foreach(key landmarks landmark_rmse)
   endif()
 endforeach()
 message(STATUS "PASS: run points3d --max-poses 100 --no-batch --json")
+
+# --out from an iSAM file, whose poses and points are numbered apart (points 0 and 1 beside poses
+# 0-3): g2o has one id space, so the estimate's points are written past the poses (ids 4 and 5) and
+# the file reads back with every variable and factor.
+set(sqrt_info_3d "20 0 0 0 0 0 20 0 0 0 0 20 0 0 0 100 0 0 100 0 100")
+file(WRITE "${WORK}/isam3d.txt"
+     "EDGE3 0 1 1 0 0 0 0 0.1 ${sqrt_info_3d}\n"
+     "POINT3 0 0 2 1 0 10 0 0 10 0 10\n"
+     "POINT3 1 0 1 1 0 10 0 0 10 0 10\n"
+     "POINT3 1 1 1 -1 0.5 10 0 0 10 0 10\n"
+     "EDGE3 1 2 1 0 0 0 0 0.1 ${sqrt_info_3d}\n"
+     "POINT3 2 1 0 -1.1 0.5 10 0 0 10 0 10\n"
+     "EDGE3 2 3 1 0 0 0 0 0.1 ${sqrt_info_3d}\n"
+     "POINT3 3 0 -1 1.2 0 10 0 0 10 0 10\n"
+     "POINT3 3 1 -1 -1 0.5 10 0 0 10 0 10\n")
+run_ok(run "${WORK}/isam3d.txt" --no-batch --out "${WORK}/isam3d.g2o" --json)
+expect_json("run isam3d.txt" "poses=4" "landmarks=2" "factors=9")
+file(STRINGS "${WORK}/isam3d.g2o" points REGEX "^VERTEX_TRACKXYZ ")
+list(TRANSFORM points REPLACE "^VERTEX_TRACKXYZ ([0-9]+) .*" "\\1")
+if(NOT points STREQUAL "4;5")
+  message(FATAL_ERROR "run isam3d.txt --out: point ids '${points}' (expected 4;5)")
+endif()
+run_ok(run "${WORK}/isam3d.g2o" --no-batch --json)
+expect_json("run isam3d.g2o (written by --out)" "poses=4" "landmarks=2" "factors=9")
+message(STATUS "PASS: run an iSAM file --out: points renumbered past the poses, read back whole")
