@@ -12,7 +12,6 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
-#include <unsupported/Eigen/MatrixFunctions>
 
 #include <algorithm>
 #include <cmath>
@@ -81,21 +80,21 @@ inline Mat4 inverseMatrix(const Mat4& m) {
 }
 
 inline Mat3 expMatrix3(const Vec3& phi) {
-  return hat3(phi).exp();
+  return matrixExp(hat3(phi));
 }
 
 // Principal matrix logarithm: valid for angles strictly below pi.
 inline Vec3 logMatrix3(const Mat3& r) {
-  return vee3(r.log());
+  return vee3(matrixLog(r));
 }
 
 inline Mat4 expMatrix6(const Vec6& tau) {
-  return hat6(tau).exp();
+  return matrixExp(hat6(tau));
 }
 
 // Principal matrix logarithm: valid for rotation angles strictly below pi.
 inline Vec6 logMatrix6(const Mat4& m) {
-  return vee6(m.log());
+  return vee6(matrixLog(m));
 }
 
 inline double rotationDistance(const SO3& a, const SO3& b) {

@@ -5,9 +5,9 @@
 #include <doctest/doctest.h>
 
 #include "lslam/geometry/se2.h"
+#include "matrix_functions.h"
 
 #include <Eigen/Core>
-#include <unsupported/Eigen/MatrixFunctions>
 
 #include <algorithm>
 #include <cmath>
@@ -46,12 +46,12 @@ inline Vec3 vee(const Mat3& m) {
 }
 
 inline Mat3 expMatrix(const Vec3& tau) {
-  return hat(tau).exp();
+  return matrixExp(hat(tau));
 }
 
 // Principal matrix logarithm: valid for rotation angles strictly inside (-pi, pi).
 inline Vec3 logMatrix(const Mat3& m) {
-  return vee(m.log());
+  return vee(matrixLog(m));
 }
 
 // x * Exp(tau), by matrix exponential.
