@@ -302,8 +302,8 @@ IncrementalOptions incrementalOptions(const RunArgs& args) {
   return options;
 }
 
-// The g2o id of each landmark key: its own where no pose has it, else every landmark id moves past
-// the largest pose id (iSAM files number poses and points apart; g2o has one id space).
+// What to add to every landmark id in a g2o file: 0 where no landmark id is also a pose id, else
+// one past the largest pose id (iSAM files number poses and points apart; g2o has one id space).
 std::int64_t landmarkIdOffset(const std::vector<VariableKey>& keys) {
   std::unordered_set<std::int64_t> pose_ids;
   std::int64_t max_pose_id = -1;
