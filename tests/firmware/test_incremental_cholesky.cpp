@@ -28,7 +28,7 @@ using D6 = std::integral_constant<int, 6>;
 
 // Random sequences per test at block size D: D = 3 keeps the counts it was first tested with, D = 2
 // runs half of them and D = 6 (whose dense references cost about 8 times D = 3's) a sixth, so
-// that the binary stays fast under the sanitizers (preset asan, -Og) too.
+// that the binary stays fast under the sanitizers (preset asan) too.
 template <int D>
 unsigned seedCount(unsigned at_three) {
   return std::max(1U, D == 3 ? at_three : D == 2 ? at_three / 2 : at_three / 6);
