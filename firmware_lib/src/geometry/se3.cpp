@@ -4,10 +4,13 @@
 #include <cmath>
 #include <cstddef>
 
+#include "inverse_factorial.h"
 #include "lslam/geometry/sin_cos.h"
 
 namespace lslam {
 namespace {
+
+using detail::inverseFactorial;
 
 // Below this angle the three coefficients of Q (below) use Taylor series: their closed forms
 // cancel terms of size t, t^2 to a result of size t^3 .. t^5 and would lose up to 5*log10(1/t)
@@ -15,12 +18,6 @@ namespace {
 constexpr double kSeriesAngle = 1.0;
 constexpr int kSeriesTerms = 9;
 using Series = std::array<double, kSeriesTerms>;
-
-constexpr double inverseFactorial(int n) {
-  double f = 1.0;
-  for (int i = 2; i <= n; ++i) f *= i;
-  return 1.0 / f;
-}
 
 // sum_m c[m] x^m by Horner's rule.
 double polynomial(const Series& c, double x) noexcept {

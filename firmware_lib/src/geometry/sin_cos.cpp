@@ -3,10 +3,13 @@
 #include <cmath>
 #include <limits>
 
+#include "inverse_factorial.h"
 #include "lslam/geometry/angle.h"
 
 namespace lslam {
 namespace {
+
+using detail::inverseFactorial;
 
 // pi/2 split in three parts for a Cody-Waite reduction r = angle - k pi/2. The first two parts
 // carry 33 significant bits each, so k * part is exact for |k| < 2^20 and the first subtraction
@@ -19,12 +22,6 @@ constexpr double kTwoOverPi = 0x1.45f306dc9c883p-1;
 // Adding and subtracting 1.5 * 2^52 rounds a double of magnitude < 2^51 to the nearest integer
 // with the FPU's rounding mode, in two additions and without a library call.
 constexpr double kRoundingShift = 0x1.8p52;
-
-constexpr double inverseFactorial(int n) {
-  double f = 1.0;
-  for (int i = 2; i <= n; ++i) f *= i;
-  return 1.0 / f;
-}
 
 // Taylor series on |r| <= pi/4: the first omitted terms, r^19/19! and r^18/18!, are below 1e-18
 // there, far under the 1.1e-16 rounding of the result, so no minimax fit is needed.
