@@ -110,7 +110,7 @@ template <class List>
 struct VariableTables;
 template <class... V>
 struct VariableTables<TypeList<V...>> {
-  static constexpr int kValueSize[] = {StoredValue<V>::kSize...};
+  static constexpr int kValueSize[sizeof...(V)] = {StoredValue<V>::kSize...};
 };
 
 // Per factor kind: its doubles and its variables; the largest information matrix.
@@ -118,9 +118,10 @@ template <class List>
 struct FactorTables;
 template <class... F>
 struct FactorTables<TypeList<F...>> {
-  static constexpr Index kFactorSize[] = {kFactorValues<F>...};
-  static constexpr int kMeasurementSize[] = {StoredValue<typename F::Measurement>::kSize...};
-  static constexpr int kArity[] = {F::Variables::kSize...};
+  static constexpr Index kFactorSize[sizeof...(F)] = {kFactorValues<F>...};
+  static constexpr int kMeasurementSize[sizeof...(F)] = {
+      StoredValue<typename F::Measurement>::kSize...};
+  static constexpr int kArity[sizeof...(F)] = {F::Variables::kSize...};
   static constexpr int kMaxInformation = [] {
     int m = 0;
     ((m = F::kErrorDim * F::kErrorDim > m ? F::kErrorDim * F::kErrorDim : m), ...);
