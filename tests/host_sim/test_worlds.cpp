@@ -6,6 +6,7 @@
 #include <doctest/doctest.h>
 
 #include <Eigen/Dense>
+#include <Eigen/SparseCholesky>
 #include <cmath>
 #include <map>
 #include <sstream>
@@ -37,7 +38,15 @@ std::size_t residualDimension(const ModelDataset& d) {
   return m;
 }
 
-// The whitened error L^T e (Omega = L L^T) of f at `values`.
+// The whitened error L^T e (Omega = L L^T) of f at the values of its variables (`second` unused
+// for a factor of one variable).
+Eigen::VectorXd whitenedError(const ModelDataset& d, const ModelFactor& f,
+                              const Eigen::VectorXd& first, const Eigen::VectorXd& second) {
+  const Eigen::MatrixXd l = Eigen::LLT<Eigen::MatrixXd>(f.information).matrixL();
+  return l.transpose() * factorError(d.convention, f, first, second);
+}
+
+// The same at `values`.
 Eigen::VectorXd whitenedError(const ModelDataset& d, const ModelFactor& f,
                               const ModelEstimate& values) {
   const Eigen::MatrixXd l = Eigen::LLT<Eigen::MatrixXd>(f.information).matrixL();
@@ -46,55 +55,74 @@ Eigen::VectorXd whitenedError(const ModelDataset& d, const ModelFactor& f,
 
 // The covariance the information implies at the truth, pose 0 held fixed (the solver's gauge):
 // (J^T J)^-1 with J the whitened errors' Jacobian by central differences on the tangent spaces.
+// Only its block of the poses' positions is kept (all the test uses): the rows of (J^T J)^-1 S at
+// the position rows, S the columns of the identity there (J^T J sparse, by a sparse Cholesky).
 struct TruthCovariance {
-  Eigen::MatrixXd covariance;
-  std::vector<int> position_rows;  // the rows of the poses' positions (pose 0 excluded)
-  int poses = 0;                   // poses with a position in position_rows
+  Eigen::MatrixXd position_covariance;  // over the poses' positions (pose 0 excluded)
+  int variables_dimension = 0;          // n, the rows of J^T J
+  int poses = 0;                        // poses with a position in position_covariance
 };
 
 TruthCovariance covarianceAtTruth(const ModelDataset& d, const ModelDataset& truth) {
   std::unordered_map<VariableKey, int, VariableKeyHash> offset;
   TruthCovariance out;
+  std::vector<int> position_rows;
   int n = 0;
   for (const ModelVertex& v : truth.vertices) {
     if (v.key == VariableKey{VariableRole::Pose, 0}) continue;
     offset[v.key] = n;
     if (v.key.role == VariableRole::Pose) {
-      for (int k = 0; k < d.dimension; ++k) out.position_rows.push_back(n + k);
+      for (int k = 0; k < d.dimension; ++k) position_rows.push_back(n + k);
       ++out.poses;
     }
     n += tangentDimension(v.kind);
   }
   const ModelEstimate values = valuesOf(truth);
   const auto kinds = variableKinds(truth);
-  Eigen::MatrixXd lambda = Eigen::MatrixXd::Zero(n, n);
+  std::vector<Eigen::Triplet<double>> lambda;  // J^T J, summed by setFromTriplets
   const double h = 1e-6;
   for (const ModelFactor& f : d.factors) {
     std::vector<VariableKey> keys = {f.first};
     if (arity(f.kind) == 2) keys.push_back(f.second);
+    // The factor's variables' values, perturbed one tangent component at a time.
+    std::vector<Eigen::VectorXd> at(2);
+    for (std::size_t i = 0; i < keys.size(); ++i) at[i] = values.at(keys[i]);
     Eigen::MatrixXd j = Eigen::MatrixXd::Zero(errorDimension(f.kind), n);
     std::vector<int> columns;
-    for (const VariableKey& key : keys) {
-      const auto at = offset.find(key);
-      if (at == offset.end()) continue;
-      const VariableKind kind = kinds.at(key);
+    for (std::size_t i = 0; i < keys.size(); ++i) {
+      const auto column = offset.find(keys[i]);
+      if (column == offset.end()) continue;
+      const VariableKind kind = kinds.at(keys[i]);
       for (int k = 0; k < tangentDimension(kind); ++k) {
         Eigen::VectorXd delta = Eigen::VectorXd::Zero(tangentDimension(kind));
-        ModelEstimate plus = values;
-        ModelEstimate minus = values;
+        std::vector<Eigen::VectorXd> plus = at;
+        std::vector<Eigen::VectorXd> minus = at;
         delta[k] = h;
-        plus[key] = retractModel(kind, values.at(key), delta);
-        minus[key] = retractModel(kind, values.at(key), -delta);
-        j.col(at->second + k) =
-            (whitenedError(d, f, plus) - whitenedError(d, f, minus)) / (2.0 * h);
-        columns.push_back(at->second + k);
+        plus[i] = retractModel(kind, at[i], delta);
+        minus[i] = retractModel(kind, at[i], -delta);
+        j.col(column->second + k) =
+            (whitenedError(d, f, plus[0], plus[1]) - whitenedError(d, f, minus[0], minus[1])) /
+            (2.0 * h);
+        columns.push_back(column->second + k);
       }
     }
     for (const int a : columns) {
-      for (const int b : columns) lambda(a, b) += j.col(a).dot(j.col(b));
+      for (const int b : columns) lambda.emplace_back(a, b, j.col(a).dot(j.col(b)));
     }
   }
-  out.covariance = lambda.ldlt().solve(Eigen::MatrixXd::Identity(n, n));
+  Eigen::SparseMatrix<double> information(n, n);
+  information.setFromTriplets(lambda.begin(), lambda.end());
+  const Eigen::SimplicialLLT<Eigen::SparseMatrix<double>> llt(information);
+  REQUIRE(llt.info() == Eigen::Success);
+  const int k = static_cast<int>(position_rows.size());
+  Eigen::MatrixXd selection = Eigen::MatrixXd::Zero(n, k);
+  for (int c = 0; c < k; ++c) selection(position_rows[static_cast<std::size_t>(c)], c) = 1.0;
+  const Eigen::MatrixXd columns = llt.solve(selection);  // (J^T J)^-1 S
+  out.position_covariance.resize(k, k);
+  for (int r = 0; r < k; ++r) {
+    out.position_covariance.row(r) = columns.row(position_rows[static_cast<std::size_t>(r)]);
+  }
+  out.variables_dimension = n;
   return out;
 }
 
@@ -201,7 +229,10 @@ TEST_CASE("worlds: whitened errors at the truth are standard normal, component b
         m += Eigen::Vector3d(1.0, r[k], r[k] * r[k]);
       }
     }
-    for (const auto& [which, m] : moments) {
+    for (const auto& entry : moments) {
+      // Named references, not a structured binding: INFO captures them in a lambda (C++17).
+      const std::pair<FactorKind, int>& which = entry.first;
+      const Eigen::Vector3d& m = entry.second;
       INFO(std::string(c.name) << " " << std::string(factorKindName(which.first)) << " component "
                                << which.second << ": " << m[0] << " samples, mean " << m[1] / m[0]
                                << ", mean square " << m[2] / m[0]);
@@ -231,18 +262,13 @@ TEST_CASE("worlds: incremental within 0.1 % of batch; batch chi2 and error consi
     // At the optimum: chi-square with m - n degrees (n: the variables' dimensions, pose 0 fixed).
     const TruthCovariance cov = covarianceAtTruth(w.dataset, w.truth);
     const double dof = static_cast<double>(residualDimension(w.dataset)) -
-                       static_cast<double>(cov.covariance.rows());
+                       static_cast<double>(cov.variables_dimension);
     checkChiSquare(batch.chi2, dof, "at the batch optimum");
 
     // The optimum's position error e = x^ - x ~ N(0, Sigma) to first order (pose 0 is the
     // gauge, at its true value): the mean squared position error has mean tr(Sigma_pp) / n and
     // variance 2 tr(Sigma_pp^2) / n^2. Bound: mean + 6 standard deviations.
-    Eigen::MatrixXd pp(cov.position_rows.size(), cov.position_rows.size());
-    for (std::size_t a = 0; a < cov.position_rows.size(); ++a) {
-      for (std::size_t b = 0; b < cov.position_rows.size(); ++b) {
-        pp(a, b) = cov.covariance(cov.position_rows[a], cov.position_rows[b]);
-      }
-    }
+    const Eigen::MatrixXd& pp = cov.position_covariance;
     const double n = cov.poses;
     const double mean = pp.trace() / n;
     const double sd = std::sqrt(2.0 * (pp * pp).trace()) / n;
