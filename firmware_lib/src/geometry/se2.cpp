@@ -4,6 +4,7 @@
 
 #include "angle_coefficients.h"
 #include "lslam/geometry/sin_cos.h"
+#include "right_plus_minus.h"
 
 namespace lslam {
 namespace {
@@ -154,19 +155,11 @@ Vec3 SE2::log(Mat3* J_r_inv) const noexcept {
 }
 
 SE2 SE2::retract(const Vec3& tau, Mat3* J_x_a, Mat3* J_x_tau) const noexcept {
-  // The Jacobian of a * b w.r.t. b is the identity, so d(a Exp(tau))/d tau is J_r itself.
-  return compose(exp(tau, J_x_tau), J_x_a, nullptr);
+  return detail::retract(*this, tau, J_x_a, J_x_tau);
 }
 
 Vec3 SE2::localCoordinates(const SE2& b, Mat3* J_t_a, Mat3* J_t_b) const noexcept {
-  Mat3 J_d_a;
-  Mat3 J_r_inv;
-  const bool want_jacobian = J_t_a != nullptr || J_t_b != nullptr;
-  const SE2 d = between(b, J_t_a != nullptr ? &J_d_a : nullptr, nullptr);
-  const Vec3 tau = d.log(want_jacobian ? &J_r_inv : nullptr);
-  if (J_t_a != nullptr) *J_t_a = J_r_inv * J_d_a;
-  if (J_t_b != nullptr) *J_t_b = J_r_inv;  // the Jacobian of between w.r.t. b is the identity
-  return tau;
+  return detail::localCoordinates(*this, b, J_t_a, J_t_b);
 }
 
 }  // namespace lslam

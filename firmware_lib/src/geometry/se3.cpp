@@ -6,6 +6,7 @@
 
 #include "inverse_factorial.h"
 #include "lslam/geometry/sin_cos.h"
+#include "right_plus_minus.h"
 
 namespace lslam {
 namespace {
@@ -176,19 +177,11 @@ Vec6 SE3::log(Mat6* J_r_inv) const noexcept {
 }
 
 SE3 SE3::retract(const Vec6& tau, Mat6* J_x_a, Mat6* J_x_tau) const noexcept {
-  // The Jacobian of a * b w.r.t. b is the identity, so d(a Exp(tau))/d tau is Jr itself.
-  return compose(exp(tau, J_x_tau), J_x_a, nullptr);
+  return detail::retract(*this, tau, J_x_a, J_x_tau);
 }
 
 Vec6 SE3::localCoordinates(const SE3& b, Mat6* J_t_a, Mat6* J_t_b) const noexcept {
-  Mat6 J_d_a;
-  Mat6 J_r_inv;
-  const bool want_jacobian = J_t_a != nullptr || J_t_b != nullptr;
-  const SE3 d = between(b, J_t_a != nullptr ? &J_d_a : nullptr, nullptr);
-  const Vec6 tau = d.log(want_jacobian ? &J_r_inv : nullptr);
-  if (J_t_a != nullptr) *J_t_a = J_r_inv * J_d_a;
-  if (J_t_b != nullptr) *J_t_b = J_r_inv;  // the Jacobian of between w.r.t. b is the identity
-  return tau;
+  return detail::localCoordinates(*this, b, J_t_a, J_t_b);
 }
 
 Status validateValue(const SE3& x) noexcept {

@@ -5,6 +5,7 @@
 #include "angle_coefficients.h"
 #include "lslam/assert.h"
 #include "lslam/geometry/sin_cos.h"
+#include "right_plus_minus.h"
 
 namespace lslam {
 namespace {
@@ -161,19 +162,11 @@ Mat3 SO3::rightJacobianInverse(const Vec3& phi) noexcept {
 }
 
 SO3 SO3::retract(const Vec3& tau, Mat3* J_x_a, Mat3* J_x_tau) const noexcept {
-  // The Jacobian of a * b w.r.t. b is the identity, so d(a Exp(tau))/d tau is Jr itself.
-  return compose(exp(tau, J_x_tau), J_x_a, nullptr);
+  return detail::retract(*this, tau, J_x_a, J_x_tau);
 }
 
 Vec3 SO3::localCoordinates(const SO3& b, Mat3* J_t_a, Mat3* J_t_b) const noexcept {
-  Mat3 J_d_a;
-  Mat3 J_r_inv;
-  const bool want_jacobian = J_t_a != nullptr || J_t_b != nullptr;
-  const SO3 d = between(b, J_t_a != nullptr ? &J_d_a : nullptr, nullptr);
-  const Vec3 tau = d.log(want_jacobian ? &J_r_inv : nullptr);
-  if (J_t_a != nullptr) *J_t_a = J_r_inv * J_d_a;
-  if (J_t_b != nullptr) *J_t_b = J_r_inv;  // the Jacobian of between w.r.t. b is the identity
-  return tau;
+  return detail::localCoordinates(*this, b, J_t_a, J_t_b);
 }
 
 }  // namespace lslam
