@@ -29,9 +29,9 @@ namespace {
 using parsing::appendNumber;
 using parsing::FieldParser;
 using parsing::formatDouble;
+using parsing::hasGraphExtension;
 using parsing::kMaxId;
 using parsing::show;
-using parsing::tokenize;
 
 // The record kinds the readers know. Edge2 is resolved to TORO or iSAM per file.
 enum class Tag { VertexSE2, EdgeSE2, Fix, Vertex2, Edge2, Odometry, Other };
@@ -65,12 +65,7 @@ std::string unsupportedReason(std::string_view tag) {
          " (expected g2o VERTEX_SE2/EDGE_SE2/FIX, TORO VERTEX2/EDGE2 or iSAM EDGE2/ODOMETRY)";
 }
 
-// One significant line of the file.
-struct Record {
-  std::size_t line = 0;
-  std::vector<std::string_view> tokens;
-  Tag tag = Tag::Other;
-};
+using Record = parsing::TaggedRecord<Tag>;
 
 // The information must be symmetric positive definite (the solvers factorize it): the solver's
 // own check, so that the reader rejects, with its line, exactly what the solver would.
@@ -188,14 +183,6 @@ std::optional<DatasetFormat> recordFormat(Tag tag, DatasetFormat edge2) {
   return std::nullopt;
 }
 
-bool hasGraphExtension(const std::string& name) {
-  std::string ext = std::filesystem::path(name).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](char c) {
-    return (c >= 'A' && c <= 'Z') ? static_cast<char>(c - 'A' + 'a') : c;
-  });
-  return ext == ".graph";
-}
-
 // A file with vertex lines declares its poses: every id an edge or a FIX names must be one of
 // them. Vertices may come after the edges, so this runs after the whole file was read; it reports
 // the earliest offending line. Files without vertex lines (iSAM) declare nothing.
@@ -226,33 +213,10 @@ void checkDeclared(const Dataset2D& d,
 
 Dataset2D parseImpl(std::istream& in, const std::string& name,
                     std::optional<DatasetFormat> forced) {
-  // Read everything first: the EDGE2 rule looks at the whole file.
-  std::vector<std::string> lines;
-  std::string line;
-  while (std::getline(in, line)) lines.push_back(line);
-  if (in.bad()) throw DatasetError(name, 0, "read error");
+  const auto file = parsing::scanFile(in, name, classify, Tag::Vertex2);
 
-  std::vector<Record> records;
-  bool has_vertex2 = false;
-  bool has_comment = false;
-  for (std::size_t i = 0; i < lines.size(); ++i) {
-    Record r;
-    r.line = i + 1;
-    r.tokens = tokenize(lines[i]);
-    if (r.tokens.empty()) continue;
-    if (r.tokens[0][0] == '#') {
-      has_comment = true;
-      continue;
-    }
-    r.tag = classify(r.tokens[0]);
-    if (r.tag == Tag::Vertex2) has_vertex2 = true;
-    records.push_back(std::move(r));
-  }
-
-  // EDGE2 resolution (see the header): TORO if the file has VERTEX2 lines, '#' comments or a
-  // ".graph" name, iSAM otherwise; a forced format decides by itself.
-  const bool toro_like = has_vertex2 || has_comment || hasGraphExtension(name);
-  DatasetFormat edge2 = toro_like ? DatasetFormat::Toro : DatasetFormat::Isam;
+  // EDGE2 resolution (see the header); a forced format decides by itself.
+  DatasetFormat edge2 = file.edge2Format(name);
   if (forced) edge2 = *forced == DatasetFormat::G2o ? DatasetFormat::G2o : *forced;
 
   Dataset2D d;
@@ -263,7 +227,7 @@ Dataset2D parseImpl(std::istream& in, const std::string& name,
   bool format_known = forced.has_value();
 
   std::unordered_map<std::int64_t, std::size_t> vertex_line;  // id -> line of its definition
-  for (const Record& r : records) {
+  for (const Record& r : file.records) {
     if (r.tag == Tag::Other) throw DatasetError(name, r.line, unsupportedReason(r.tokens[0]));
     DatasetFormat f = *recordFormat(r.tag, edge2);
     if (forced && r.tag == Tag::Edge2 && *forced == DatasetFormat::G2o) {

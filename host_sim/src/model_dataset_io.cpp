@@ -32,7 +32,6 @@ using parsing::FieldParser;
 using parsing::formatDouble;
 using parsing::kMaxId;
 using parsing::show;
-using parsing::tokenize;
 
 // Every record kind the reader knows. Edge2 is resolved to TORO or iSAM per file.
 enum class Tag {
@@ -134,19 +133,7 @@ std::string unsupportedReason(std::string_view tag) {
          "TORO VERTEX2/EDGE2 or iSAM ODOMETRY/EDGE2/LANDMARK/EDGE3/POINT3)";
 }
 
-bool hasGraphExtension(const std::string& name) {
-  std::string ext = std::filesystem::path(name).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](char c) {
-    return (c >= 'A' && c <= 'Z') ? static_cast<char>(c - 'A' + 'a') : c;
-  });
-  return ext == ".graph";
-}
-
-struct Record {
-  std::size_t line = 0;
-  std::vector<std::string_view> tokens;
-  Tag tag = Tag::Other;
-};
+using Record = parsing::TaggedRecord<Tag>;
 
 // ---- kinds, roles and record names ----
 
@@ -761,41 +748,17 @@ class Reader {
 };
 
 ModelDataset parseImpl(std::istream& in, const std::string& name) {
-  // Read everything first: the EDGE2 rule looks at the whole file.
-  std::vector<std::string> lines;
-  std::string line;
-  while (std::getline(in, line)) lines.push_back(line);
-  if (in.bad()) throw DatasetError(name, 0, "read error");
+  const auto file = parsing::scanFile(in, name, classify, Tag::Vertex2);
 
-  std::vector<Record> records;
-  bool has_vertex2 = false;
-  bool has_comment = false;
-  for (std::size_t i = 0; i < lines.size(); ++i) {
-    Record r;
-    r.line = i + 1;
-    r.tokens = tokenize(lines[i]);
-    if (r.tokens.empty()) continue;
-    if (r.tokens[0][0] == '#') {
-      has_comment = true;
-      continue;
-    }
-    r.tag = classify(r.tokens[0]);
-    if (r.tag == Tag::Vertex2) has_vertex2 = true;
-    records.push_back(std::move(r));
-  }
-
-  // EDGE2: TORO if the file has VERTEX2 lines, '#' comments or a ".graph" name, iSAM otherwise
-  // (dataset_io.h's rule).
-  const bool graph_name = hasGraphExtension(name);
-  const DatasetFormat edge2 =
-      (has_vertex2 || has_comment || graph_name) ? DatasetFormat::Toro : DatasetFormat::Isam;
+  const bool graph_name = parsing::hasGraphExtension(name);
+  const DatasetFormat edge2 = file.edge2Format(name);
 
   Reader reader(name, graph_name ? DatasetFormat::Toro : DatasetFormat::G2o);
   std::optional<DatasetFormat> format;
   std::size_t format_line = 0;
   int dimension = 0;
   std::size_t dimension_line = 0;
-  for (const Record& r : records) {
+  for (const Record& r : file.records) {
     if (r.tag == Tag::Other) throw DatasetError(name, r.line, unsupportedReason(r.tokens[0]));
     const DatasetFormat f = tagFormat(r.tag, edge2);
     if (!format) {

@@ -1,13 +1,15 @@
 #pragma once
-// Private to host_sim/src: the line tokenizer and the strict field parsing shared by the dataset
-// readers (dataset_io.cpp, model_dataset_io.cpp), and the shortest round-trip number formatting
-// shared by their writers. Every parse failure throws DatasetError(file, line, reason).
+// Private to host_sim/src: the file scan, the line tokenizer and the strict field parsing shared by
+// the dataset readers (dataset_io.cpp, model_dataset_io.cpp), and the shortest round-trip number
+// formatting shared by their writers. Every parse failure throws DatasetError(file, line, reason).
 #include <algorithm>
 #include <array>
 #include <charconv>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <filesystem>
+#include <istream>
 #include <limits>
 #include <string>
 #include <string_view>
@@ -35,6 +37,63 @@ inline std::vector<std::string_view> tokenize(std::string_view s) {
     out.push_back(s.substr(start, i - start));
   }
   return out;
+}
+
+// One significant line of a file: its number, its tokens (views into ScannedFile::lines) and tag.
+template <class Tag>
+struct TaggedRecord {
+  std::size_t line = 0;
+  std::vector<std::string_view> tokens;
+  Tag tag{};
+};
+
+inline bool hasGraphExtension(const std::string& name) {
+  std::string ext = std::filesystem::path(name).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](char c) {
+    return (c >= 'A' && c <= 'Z') ? static_cast<char>(c - 'A' + 'a') : c;
+  });
+  return ext == ".graph";
+}
+
+// A file read whole (the EDGE2 rule looks at all of it), its blank and '#' lines dropped.
+template <class Tag>
+struct ScannedFile {
+  std::vector<std::string> lines;  // the text the records' tokens view
+  std::vector<TaggedRecord<Tag>> records;
+  bool has_vertex2 = false;
+  bool has_comment = false;
+
+  // EDGE2 (dataset_io.h's rule): TORO if the file has VERTEX2 lines, '#' comments or a ".graph"
+  // name, iSAM otherwise.
+  DatasetFormat edge2Format(const std::string& name) const {
+    return has_vertex2 || has_comment || hasGraphExtension(name) ? DatasetFormat::Toro
+                                                                 : DatasetFormat::Isam;
+  }
+};
+
+// classify(tag token) -> Tag; `vertex2` is the reader's tag for TORO's VERTEX2.
+template <class Tag, class Classify>
+ScannedFile<Tag> scanFile(std::istream& in, const std::string& name, Classify classify,
+                          Tag vertex2) {
+  ScannedFile<Tag> file;
+  // Every line first: the tokens view them, so the vector must not grow after.
+  std::string line;
+  while (std::getline(in, line)) file.lines.push_back(line);
+  if (in.bad()) throw DatasetError(name, 0, "read error");
+  for (std::size_t i = 0; i < file.lines.size(); ++i) {
+    TaggedRecord<Tag> r;
+    r.line = i + 1;
+    r.tokens = tokenize(file.lines[i]);
+    if (r.tokens.empty()) continue;
+    if (r.tokens[0][0] == '#') {
+      file.has_comment = true;
+      continue;
+    }
+    r.tag = classify(r.tokens[0]);
+    if (r.tag == vertex2) file.has_vertex2 = true;
+    file.records.push_back(std::move(r));
+  }
+  return file;
 }
 
 // Printable form of a token for an error message (long or binary tokens shortened/escaped).
