@@ -18,6 +18,7 @@
 
 #include "host_sim/batch_solver.h"
 #include "host_sim/chi2.h"
+#include "pose2d_matrices.h"
 
 using lslam::sim::BatchMethod;
 using lslam::sim::BatchOptions;
@@ -34,21 +35,12 @@ using lslam::sim::retract2D;
 using lslam::sim::solveBatch2D;
 using lslam::sim::Vertex2D;
 
+using lslam::test::fromHomogeneous;
+using lslam::test::homogeneous;
+
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-
-Eigen::Matrix3d homogeneous(const Pose2D& p) {
-  Eigen::Matrix3d t;
-  t << std::cos(p.theta), -std::sin(p.theta), p.x,  //
-      std::sin(p.theta), std::cos(p.theta), p.y,    //
-      0.0, 0.0, 1.0;
-  return t;
-}
-
-Pose2D fromHomogeneous(const Eigen::Matrix3d& t) {
-  return Pose2D{t(0, 2), t(1, 2), std::atan2(t(1, 0), t(0, 0))};
-}
 
 Pose2D compose(const Pose2D& a, const Pose2D& b) {
   return fromHomogeneous(homogeneous(a) * homogeneous(b));

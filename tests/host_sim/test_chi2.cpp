@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "host_sim/chi2.h"
+#include "pose2d_matrices.h"
 
 using lslam::sim::chi2G2o;
 using lslam::sim::Dataset2D;
@@ -17,21 +18,12 @@ using lslam::sim::Estimate2D;
 using lslam::sim::Pose2D;
 using lslam::sim::wrapAngle;
 
+using lslam::test::fromHomogeneous;
+using lslam::test::homogeneous;
+
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-
-Eigen::Matrix3d homogeneous(const Pose2D& p) {
-  Eigen::Matrix3d t;
-  t << std::cos(p.theta), -std::sin(p.theta), p.x,  //
-      std::sin(p.theta), std::cos(p.theta), p.y,    //
-      0.0, 0.0, 1.0;
-  return t;
-}
-
-Pose2D fromHomogeneous(const Eigen::Matrix3d& t) {
-  return Pose2D{t(0, 2), t(1, 2), std::atan2(t(1, 0), t(0, 0))};
-}
 
 // e = (x, y, theta) of Z^-1 Xi^-1 Xj, computed with matrix inverses and atan2.
 Eigen::Vector3d handError(const Pose2D& xi, const Pose2D& xj, const Pose2D& z) {
