@@ -3,11 +3,8 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <array>
-#include <cerrno>
 #include <charconv>
 #include <cmath>
-#include <cstring>
-#include <filesystem>
 #include <fstream>
 #include <istream>
 #include <limits>
@@ -285,17 +282,7 @@ Dataset2D parseImpl(std::istream& in, const std::string& name,
 }
 
 Dataset2D readImpl(const std::string& path, std::optional<DatasetFormat> forced) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) {
-    throw DatasetError(path, 0, "cannot read: is a directory");
-  }
-  std::ifstream in(path, std::ios::in | std::ios::binary);
-  if (!in) {
-    const int err = errno;
-    throw DatasetError(path, 0,
-                       std::string("cannot open file") + (err != 0 ? ": " : "") +
-                           (err != 0 ? std::strerror(err) : ""));
-  }
+  std::ifstream in = parsing::openDatasetFile(path);
   return parseImpl(in, path, forced);
 }
 

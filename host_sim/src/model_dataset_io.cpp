@@ -3,10 +3,7 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <array>
-#include <cerrno>
 #include <cmath>
-#include <cstring>
-#include <filesystem>
 #include <fstream>
 #include <initializer_list>
 #include <istream>
@@ -933,17 +930,7 @@ void appendValues(std::string& buf, const Eigen::VectorXd& v) {
 }  // namespace
 
 ModelDataset readModelDataset(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) {
-    throw DatasetError(path, 0, "cannot read: is a directory");
-  }
-  std::ifstream in(path, std::ios::in | std::ios::binary);
-  if (!in) {
-    const int err = errno;
-    throw DatasetError(path, 0,
-                       std::string("cannot open file") + (err != 0 ? ": " : "") +
-                           (err != 0 ? std::strerror(err) : ""));
-  }
+  std::ifstream in = parsing::openDatasetFile(path);
   return parseImpl(in, path);
 }
 

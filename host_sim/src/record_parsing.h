@@ -4,11 +4,14 @@
 // formatting shared by their writers. Every parse failure throws DatasetError(file, line, reason).
 #include <algorithm>
 #include <array>
+#include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <istream>
 #include <limits>
 #include <string>
@@ -37,6 +40,22 @@ inline std::vector<std::string_view> tokenize(std::string_view s) {
     out.push_back(s.substr(start, i - start));
   }
   return out;
+}
+
+// The file opened for reading, or DatasetError(path, 0, why): a directory, or open's errno.
+inline std::ifstream openDatasetFile(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    throw DatasetError(path, 0, "cannot read: is a directory");
+  }
+  std::ifstream in(path, std::ios::in | std::ios::binary);
+  if (!in) {
+    const int err = errno;
+    throw DatasetError(path, 0,
+                       std::string("cannot open file") + (err != 0 ? ": " : "") +
+                           (err != 0 ? std::strerror(err) : ""));
+  }
+  return in;
 }
 
 // One significant line of a file: its number, its tokens (views into ScannedFile::lines) and tag.
