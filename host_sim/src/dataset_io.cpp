@@ -1,7 +1,6 @@
 #include "host_sim/dataset_io.h"
 
 #include <Eigen/Eigenvalues>
-#include <algorithm>
 #include <array>
 #include <charconv>
 #include <cmath>
@@ -12,9 +11,7 @@
 #include <ostream>
 #include <stdexcept>
 #include <string_view>
-#include <system_error>
 #include <unordered_map>
-#include <utility>
 
 #include "lslam/factors/information.h"
 #include "record_parsing.h"

@@ -11,7 +11,6 @@
 #include <ostream>
 #include <stdexcept>
 #include <string_view>
-#include <system_error>
 #include <unordered_map>
 #include <utility>
 #include <vector>

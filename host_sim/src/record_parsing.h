@@ -17,6 +17,7 @@
 #include <string>
 #include <string_view>
 #include <system_error>
+#include <utility>
 #include <vector>
 
 #include "host_sim/dataset.h"
@@ -63,7 +64,7 @@ template <class Tag>
 struct TaggedRecord {
   std::size_t line = 0;
   std::vector<std::string_view> tokens;
-  Tag tag{};
+  Tag tag = Tag::Other;
 };
 
 inline bool hasGraphExtension(const std::string& name) {
@@ -77,6 +78,13 @@ inline bool hasGraphExtension(const std::string& name) {
 // A file read whole (the EDGE2 rule looks at all of it), its blank and '#' lines dropped.
 template <class Tag>
 struct ScannedFile {
+  // Move-only: a copy's tokens would view the original's lines.
+  ScannedFile() = default;
+  ScannedFile(ScannedFile&&) = default;
+  ScannedFile& operator=(ScannedFile&&) = default;
+  ScannedFile(const ScannedFile&) = delete;
+  ScannedFile& operator=(const ScannedFile&) = delete;
+
   std::vector<std::string> lines;  // the text the records' tokens view
   std::vector<TaggedRecord<Tag>> records;
   bool has_vertex2 = false;
