@@ -23,15 +23,8 @@ namespace {
 
 const std::string kDataDir = LSLAM_DATA_DIR;
 
+using lslam::test::firstDifferingLine;
 using lslam::test::readFile;
-
-// 1-based number of the first line where a and b differ (0 if they are equal).
-int firstDifferingLine(const std::string& a, const std::string& b) {
-  if (a == b) return 0;
-  int line = 1;
-  for (std::size_t i = 0; i < a.size() && i < b.size() && a[i] == b[i]; ++i) line += a[i] == '\n';
-  return line;
-}
 
 }  // namespace
 
