@@ -23,7 +23,6 @@ namespace {
 using parsing::appendNumber;
 using parsing::FieldParser;
 using parsing::formatDouble;
-using parsing::hasGraphExtension;
 using parsing::kMaxId;
 using parsing::show;
 
@@ -207,16 +206,15 @@ void checkDeclared(const Dataset2D& d,
 
 Dataset2D parseImpl(std::istream& in, const std::string& name,
                     std::optional<DatasetFormat> forced) {
-  const auto file = parsing::scanFile(in, name, classify, Tag::Vertex2);
+  const auto file = parsing::scanFile<Tag>(in, name, classify);
 
   // EDGE2 resolution (see the header); a forced format decides by itself.
-  DatasetFormat edge2 = file.edge2Format(name);
+  DatasetFormat edge2 = file.edge2Format();
   if (forced) edge2 = *forced == DatasetFormat::G2o ? DatasetFormat::G2o : *forced;
 
   Dataset2D d;
   d.name = name;
-  d.format =
-      forced ? *forced : (hasGraphExtension(name) ? DatasetFormat::Toro : DatasetFormat::G2o);
+  d.format = forced ? *forced : (file.has_graph_name ? DatasetFormat::Toro : DatasetFormat::G2o);
   std::size_t format_line = 0;  // line of the record that fixed the format (0: forced/none yet)
   bool format_known = forced.has_value();
 

@@ -744,12 +744,10 @@ class Reader {
 };
 
 ModelDataset parseImpl(std::istream& in, const std::string& name) {
-  const auto file = parsing::scanFile(in, name, classify, Tag::Vertex2);
+  const auto file = parsing::scanFile<Tag>(in, name, classify);
+  const DatasetFormat edge2 = file.edge2Format();
 
-  const bool graph_name = parsing::hasGraphExtension(name);
-  const DatasetFormat edge2 = file.edge2Format(name);
-
-  Reader reader(name, graph_name ? DatasetFormat::Toro : DatasetFormat::G2o);
+  Reader reader(name, file.has_graph_name ? DatasetFormat::Toro : DatasetFormat::G2o);
   std::optional<DatasetFormat> format;
   std::size_t format_line = 0;
   int dimension = 0;

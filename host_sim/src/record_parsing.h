@@ -89,20 +89,20 @@ struct ScannedFile {
   std::vector<TaggedRecord<Tag>> records;
   bool has_vertex2 = false;
   bool has_comment = false;
+  bool has_graph_name = false;  // the file's name ends in ".graph" (any case)
 
   // EDGE2 (dataset_io.h's rule): TORO if the file has VERTEX2 lines, '#' comments or a ".graph"
   // name, iSAM otherwise.
-  DatasetFormat edge2Format(const std::string& name) const {
-    return has_vertex2 || has_comment || hasGraphExtension(name) ? DatasetFormat::Toro
-                                                                 : DatasetFormat::Isam;
+  DatasetFormat edge2Format() const {
+    return has_vertex2 || has_comment || has_graph_name ? DatasetFormat::Toro : DatasetFormat::Isam;
   }
 };
 
-// classify(tag token) -> Tag; `vertex2` is the reader's tag for TORO's VERTEX2.
+// classify(tag token) -> Tag, a reader's enum with Vertex2 (TORO's VERTEX2) and Other.
 template <class Tag, class Classify>
-ScannedFile<Tag> scanFile(std::istream& in, const std::string& name, Classify classify,
-                          Tag vertex2) {
+ScannedFile<Tag> scanFile(std::istream& in, const std::string& name, Classify classify) {
   ScannedFile<Tag> file;
+  file.has_graph_name = hasGraphExtension(name);
   // Every line first: the tokens view them, so the vector must not grow after.
   std::string line;
   while (std::getline(in, line)) file.lines.push_back(line);
@@ -117,7 +117,7 @@ ScannedFile<Tag> scanFile(std::istream& in, const std::string& name, Classify cl
       continue;
     }
     r.tag = classify(r.tokens[0]);
-    if (r.tag == vertex2) file.has_vertex2 = true;
+    if (r.tag == Tag::Vertex2) file.has_vertex2 = true;
     file.records.push_back(std::move(r));
   }
   return file;
