@@ -6,8 +6,8 @@
 // .bss + stack) within 512 KB, the result equal to the host's run of the same stream, and the map
 // no worse against the truth than the independent batch optimum of the first 100 steps.
 //
-// Built twice: as is (must pass), and with LSLAM_TARGET_PERTURB_MEASUREMENT, which moves one
-// loop closure by one standard deviation of its noise (must fail: proves the checks can fail).
+// Built twice: as is (must pass), and perturbed (stream_runner.h: one loop closure moved; must
+// fail).
 #include <cmath>
 #include <cstdint>
 
@@ -16,6 +16,7 @@
 #include "lslam/solver/compact_pose_graph.h"
 #include "lslam/solver/smoother.h"
 #include "lslam_target/instruction_counter.h"
+#include "stream_runner.h"
 #include "target_checks.h"
 
 // The linker script's symbols, declared as startup.cpp declares them (LTO merges the two).
@@ -34,11 +35,6 @@ using lslam::SE2;
 using lslam::target::Line;
 using Closure = lslam::PlaceClosure<SE2>;
 
-#ifdef LSLAM_TARGET_PERTURB_MEASUREMENT
-constexpr bool kPerturb = true;
-#else
-constexpr bool kPerturb = false;
-#endif
 constexpr std::int32_t kPerturbedClosure = stream::kNumClosures / 2;
 constexpr double kPerturbation = 0.05;  // metres on x: grid2d's sigma of translations
 
@@ -50,13 +46,7 @@ using Solver = lslam::StaticSmoother<PoseSlam2D, stream::kMaxPoses, 0, stream::k
                                      stream::kMaxFactors * 12, stream::kFactorBlocks, 0>;
 
 // The options of the host's run of the stream (compact_stream_header.cpp).
-lslam::SolverOptions hostRunOptions() {
-  lslam::SolverOptions options = lslam::defaultSolverOptions<PoseSlam2D>();
-  options.solve_after_update = false;
-  return options;
-}
-
-Solver g_solver(hostRunOptions());  // in .bss
+Solver g_solver(lslam::target::hostRunnerOptions<PoseSlam2D>());  // in .bss
 lslam::CompactPoseGraph<PoseSlam2D> g_graph(g_solver);
 std::uint64_t g_worst[kBlocks];
 
@@ -81,7 +71,7 @@ lslam::Status runStep(std::int32_t s, std::int32_t& next_closure, std::uint64_t&
     if (count == 4) return lslam::Status::InvalidArgument;
     const stream::CompactClosure& c = stream::kClosures[next_closure];
     SE2 z = pose(c.z);
-    if (kPerturb && next_closure == kPerturbedClosure)
+    if (lslam::target::kPerturbedBuild && next_closure == kPerturbedClosure)
       z = SE2(z.x() + kPerturbation, z.y(), z.theta());
     closures[count++] =
         Closure{lslam::Place<SE2>{c.node, SE2(), lslam::Mat3::Zero()}, z, closure_information};
@@ -161,7 +151,7 @@ int main() {
       .integer(static_cast<long long>(stack))
       .text(" B")
       .print();
-  if (kPerturb) Line().text("TEST-ONLY BUILD: one loop closure moved by 0.05 m").print();
+  lslam::target::printPerturbedBuild("loop closure", kPerturbedClosure, kPerturbation);
   lslam::target::startInstructionCounter();
   {
     const std::uint64_t t0 = lslam::target::instructions();
@@ -172,17 +162,14 @@ int main() {
     g_worst[0] = lslam::target::instructions() - t0;
   }
   std::int32_t next_closure = 0;
-  for (std::int32_t s = 1; s < stream::kNumSteps; ++s) {
+  const auto step = [&next_closure](std::int32_t s) {
     std::uint64_t cost = 0;
     const lslam::Status status = runStep(s, next_closure, cost);
-    if (status != lslam::Status::Ok) {
-      Line().text("step ").integer(s).text(": ").text(lslam::toString(status)).print();
-      checks.expect(false, "every step accepted");
-      return checks.exitStatus();
-    }
     std::uint64_t& worst = g_worst[s / kBlock];
     if (cost > worst) worst = cost;
-  }
+    return status;
+  };
+  if (!lslam::target::runSteps(1, stream::kNumSteps, step, checks)) return checks.exitStatus();
   std::uint64_t early = 0;
   std::uint64_t late = 0;
   for (std::int32_t b = 0; b < kBlocks; ++b) {

@@ -3,8 +3,7 @@
 // the Cortex-M7 under QEMU. Checks the result against the host's numbers, prints the instruction
 // count of every step and a summary per kind of step. The exit status is the test result.
 //
-// Built twice: as is (must pass), and with LSLAM_TARGET_PERTURB_MEASUREMENT, which moves one
-// measurement by one standard deviation of its noise (must fail: proves the checks can fail).
+// Built twice: as is (must pass), and perturbed (stream_runner.h: must fail).
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -14,21 +13,19 @@
 #include "lslam/solver/smoother.h"
 #include "lslam_target/instruction_counter.h"
 #include "step_costs.h"
+#include "stream_runner.h"
 #include "target_checks.h"
 
 namespace {
 
 namespace stream = lslam::stream::landmarks_3d_300;
 using lslam::Slam3D;
+using lslam::target::kPerturbedBuild;
 using lslam::target::Line;
+using lslam::target::printValue;
 using Variable = lslam::ModelVariableInput<Slam3D>;
 using Measurement = lslam::ModelFactorInput<Slam3D>;
 
-#ifdef LSLAM_TARGET_PERTURB_MEASUREMENT
-constexpr bool kPerturb = true;
-#else
-constexpr bool kPerturb = false;
-#endif
 constexpr std::int32_t kPerturbedFactor = stream::kNumFactors / 2;
 constexpr double kPerturbation = 0.05;  // metres on x: the generator's sigma of translations
 
@@ -39,15 +36,7 @@ constexpr double kPerturbation = 0.05;  // metres on x: the generator's sigma of
 constexpr lslam::Index kMaxBlocks = 4608;
 using Solver = lslam::StaticSmoother<Slam3D, 320, 48, 704, 19456, kMaxBlocks, kMaxBlocks * 36>;
 
-// The host runner's configuration (host_sim/src/model_run.cpp): the model's default options, with
-// the back-substitution called after each update rather than inside it.
-lslam::SolverOptions hostRunnerOptions() {
-  lslam::SolverOptions options = lslam::defaultSolverOptions<Slam3D>();
-  options.solve_after_update = false;
-  return options;
-}
-
-Solver g_solver(hostRunnerOptions());  // in .bss
+Solver g_solver(lslam::target::hostRunnerOptions<Slam3D>());  // in .bss
 StepCost g_costs[stream::kNumSteps];
 
 Variable variableInput(const lslam::stream::ModelStreamVariable& v) {
@@ -72,7 +61,8 @@ Measurement factorInput(std::int32_t factor) {
   in.ids[1] = f.ids[1];
   for (int k = 0; k < Measurement::kMeasurementSize; ++k) in.measurement[k] = f.measurement[k];
   // x of the translation: qx qy qz qw x y z for a pose, x y z for a point.
-  if (kPerturb && factor == kPerturbedFactor) in.measurement[between ? 4 : 0] += kPerturbation;
+  if (kPerturbedBuild && factor == kPerturbedFactor)
+    in.measurement[between ? 4 : 0] += kPerturbation;
   const int n = between ? 6 : 3;
   int u = 0;
   for (int r = 0; r < n; ++r) {
@@ -84,18 +74,6 @@ Measurement factorInput(std::int32_t factor) {
   return in;
 }
 
-StepKind kindOf(std::int32_t s, const lslam::UpdateResult& result) {
-  const lslam::stream::ModelStreamStep& step = stream::kSteps[s];
-  if (s == 0) return StepKind::First;
-  if (result.reordered) return StepKind::Reorder;
-  if (result.ordering_prepared) return StepKind::PrepareOrdering;
-  if (result.variables_relinearized > 0) return StepKind::Relinearization;
-  if (result.laid_out) return StepKind::Layout;
-  if (step.loop_closure) return StepKind::LoopClosure;
-  return step.landmark_observation ? StepKind::LandmarkObservation : StepKind::Odometry;
-}
-
-// One online step, timed as the host times it: update() and solve(), inputs prepared before.
 lslam::Status runStep(std::int32_t s) {
   constexpr std::int32_t kMaxInputs = 8;
   const lslam::stream::ModelStreamStep& step = stream::kSteps[s];
@@ -110,13 +88,11 @@ lslam::Status runStep(std::int32_t s) {
   for (std::int32_t k = 0; k < step.factor_count; ++k) {
     factors[k] = factorInput(step.first_factor + k);
   }
-  lslam::UpdateResult result;
-  const std::uint64_t t0 = lslam::target::instructions();
+  StepCost& cost = g_costs[s];
   const lslam::Status status =
-      g_solver.update(variables, step.variable_count, factors, step.factor_count, &result);
-  if (status == lslam::Status::Ok) g_solver.solve(false, &result);
-  const std::uint64_t t1 = lslam::target::instructions();
-  g_costs[s] = StepCost{t1 - t0, kindOf(s, result), result};
+      lslam::target::timedStep(g_solver, variables, step.variable_count, factors, step.factor_count,
+                               &cost.result, &cost.instructions);
+  cost.kind = stepKind(s == 0, step.loop_closure, step.landmark_observation, cost.result);
   return status;
 }
 
@@ -168,10 +144,6 @@ void printRelinearizingSteps() {
       .print();
 }
 
-void printValue(const char* name, double value) {
-  Line().text(name).real(value, 15).print();
-}
-
 // The checks and their tolerances: see firmware_lib/target/README.md.
 void checkResult(lslam::target::Checks& checks) {
   const double chi2 = g_solver.chi2();
@@ -208,26 +180,15 @@ int main() {
       .integer(kMaxBlocks)
       .text(")")
       .print();
-  if (kPerturb) {
-    Line()
-        .text("TEST-ONLY BUILD: measurement ")
-        .integer(kPerturbedFactor)
-        .text(" corrupted by ")
-        .real(kPerturbation, 3)
-        .text(" m")
-        .print();
-  }
+  lslam::target::printPerturbedBuild("measurement", kPerturbedFactor, kPerturbation);
   lslam::target::startInstructionCounter();
   lslam::Index peak_blocks = 0;
-  for (std::int32_t s = 0; s < stream::kNumSteps; ++s) {
+  const auto step = [&peak_blocks](std::int32_t s) {
     const lslam::Status status = runStep(s);
-    if (status != lslam::Status::Ok) {
-      Line().text("step ").integer(s).text(": ").text(lslam::toString(status)).print();
-      checks.expect(false, "every step accepted by the solver");
-      return checks.exitStatus();
-    }
     if (g_solver.factorBlocks() > peak_blocks) peak_blocks = g_solver.factorBlocks();
-  }
+    return status;
+  };
+  if (!lslam::target::runSteps(0, stream::kNumSteps, step, checks)) return checks.exitStatus();
   printStepCosts(g_costs, stream::kNumSteps);
   printRelinearizingSteps();
   Line()

@@ -4,8 +4,7 @@
 // the Cortex-M7 under QEMU. Checks the result against the host's numbers, prints the instruction
 // count of every step and a summary per kind of step. The exit status is the test result.
 //
-// Built twice: as is (must pass), and with LSLAM_TARGET_PERTURB_MEASUREMENT, which corrupts one
-// measurement by one standard deviation of its noise (must fail: proves the checks can fail).
+// Built twice: as is (must pass), and perturbed (stream_runner.h: must fail).
 #include <cmath>
 #include <cstdint>
 
@@ -15,21 +14,19 @@
 #include "lslam_target/instruction_counter.h"
 #include "manhattan_world_500_stream.h"
 #include "step_costs.h"
+#include "stream_runner.h"
 #include "target_checks.h"
 
 namespace {
 
 namespace stream = lslam::stream::manhattan_world_500;
 using lslam::PoseSlam2D;
+using lslam::target::kPerturbedBuild;
 using lslam::target::Line;
+using lslam::target::printValue;
 using Variable = lslam::ModelVariableInput<PoseSlam2D>;
 using Measurement = lslam::ModelFactorInput<PoseSlam2D>;
 
-#ifdef LSLAM_TARGET_PERTURB_MEASUREMENT
-constexpr bool kPerturb = true;
-#else
-constexpr bool kPerturb = false;
-#endif
 constexpr std::int32_t kPerturbedFactor = stream::kNumFactors / 2;
 constexpr double kPerturbation = 0.05;  // metres on x: the generator's sigma_x
 
@@ -51,21 +48,14 @@ constexpr double kBytesPerBlock = (kBytes<512, 1024, 32768> - kBytes<512, 1024, 
 constexpr double kFixedBytes = kBytes<512, 1024, 16384> - 512 * kBytesPerPose -
                                1024 * kBytesPerFactor - 16384 * kBytesPerBlock;
 
-// The host runner's configuration (host_sim/src/model_run.cpp): the model's default options, with
-// the back-substitution called after each update rather than inside it.
-lslam::SolverOptions hostRunnerOptions() {
-  lslam::SolverOptions options = lslam::defaultSolverOptions<PoseSlam2D>();
-  options.solve_after_update = false;
-  return options;
-}
-
-Solver g_solver(hostRunnerOptions());  // in .bss: 1.7 MB of the board's 4 MB of RAM
+Solver g_solver(
+    lslam::target::hostRunnerOptions<PoseSlam2D>());  // in .bss: 1.7 MB of the board's 4 MB of RAM
 StepCost g_costs[stream::kNumSteps];
 
 // The measurement as the solver sees it (with the test-only corruption, if built in).
 lslam::SE2 measurement(std::int32_t factor) {
   const lslam::stream::StreamFactor& f = stream::kFactors[factor];
-  const double bias = kPerturb && factor == kPerturbedFactor ? kPerturbation : 0.0;
+  const double bias = kPerturbedBuild && factor == kPerturbedFactor ? kPerturbation : 0.0;
   return lslam::SE2(f.x + bias, f.y, f.theta);
 }
 
@@ -98,16 +88,6 @@ bool initialPose(const lslam::stream::StreamStep& step, Variable* pose) {
   return true;
 }
 
-StepKind kindOf(const lslam::stream::StreamStep& step, const lslam::UpdateResult& result) {
-  if (step.factor_count == 0) return StepKind::First;
-  if (result.reordered) return StepKind::Reorder;
-  if (result.ordering_prepared) return StepKind::PrepareOrdering;
-  if (result.variables_relinearized > 0) return StepKind::Relinearization;
-  if (result.laid_out) return StepKind::Layout;
-  return step.loop_closure ? StepKind::LoopClosure : StepKind::Odometry;
-}
-
-// One online step, timed as the host times it: update() and solve(), inputs prepared before.
 lslam::Status runStep(std::int32_t s) {
   const lslam::stream::StreamStep& step = stream::kSteps[s];
   Variable pose;
@@ -117,12 +97,10 @@ lslam::Status runStep(std::int32_t s) {
   for (std::int32_t k = 0; k < step.factor_count; ++k) {
     factors[k] = factorInput(step.first_factor + k);
   }
-  lslam::UpdateResult result;
-  const std::uint64_t t0 = lslam::target::instructions();
-  const lslam::Status status = g_solver.update(&pose, 1, factors, step.factor_count, &result);
-  if (status == lslam::Status::Ok) g_solver.solve(false, &result);
-  const std::uint64_t t1 = lslam::target::instructions();
-  g_costs[s] = StepCost{t1 - t0, kindOf(step, result), result};
+  StepCost& cost = g_costs[s];
+  const lslam::Status status = lslam::target::timedStep(
+      g_solver, &pose, 1, factors, step.factor_count, &cost.result, &cost.instructions);
+  cost.kind = stepKind(step.factor_count == 0, step.loop_closure, false, cost.result);
   return status;
 }
 
@@ -159,10 +137,6 @@ PoseDifference maxDifference(const lslam::stream::StreamPose* reference, std::in
     d.angle = std::fmax(d.angle, std::fabs(lslam::wrapAngle(p.theta() - r.theta)));
   }
   return d;
-}
-
-void printValue(const char* name, double value) {
-  Line().text(name).real(value, 15).print();
 }
 
 // The checks, tolerances and why: see firmware_lib/target/README.md, Tests.
@@ -214,24 +188,9 @@ int main() {
       .fixed(kFixedBytes, 0)
       .text(" B")
       .print();
-  if (kPerturb) {
-    Line()
-        .text("TEST-ONLY BUILD: measurement ")
-        .integer(kPerturbedFactor)
-        .text(" corrupted by ")
-        .real(kPerturbation, 3)
-        .text(" m")
-        .print();
-  }
+  lslam::target::printPerturbedBuild("measurement", kPerturbedFactor, kPerturbation);
   lslam::target::startInstructionCounter();
-  for (std::int32_t s = 0; s < stream::kNumSteps; ++s) {
-    const lslam::Status status = runStep(s);
-    if (status != lslam::Status::Ok) {
-      Line().text("step ").integer(s).text(": ").text(lslam::toString(status)).print();
-      checks.expect(false, "every step accepted by the solver");
-      return checks.exitStatus();
-    }
-  }
+  if (!lslam::target::runSteps(0, stream::kNumSteps, runStep, checks)) return checks.exitStatus();
   const OdometryFigures odometry = printStepCosts(g_costs, stream::kNumSteps);
   checkResult(checks);
   // An odometry step does the same work wherever it falls in the stream (2 columns, 1 block

@@ -229,6 +229,17 @@ void printWorstLoopClosure(const StepCost* costs, std::int32_t count) {
 
 }  // namespace
 
+StepKind stepKind(bool first, bool loop_closure, bool landmark_observation,
+                  const lslam::UpdateResult& result) {
+  if (first) return StepKind::First;
+  if (result.reordered) return StepKind::Reorder;
+  if (result.ordering_prepared) return StepKind::PrepareOrdering;
+  if (result.variables_relinearized > 0) return StepKind::Relinearization;
+  if (result.laid_out) return StepKind::Layout;
+  if (loop_closure) return StepKind::LoopClosure;
+  return landmark_observation ? StepKind::LandmarkObservation : StepKind::Odometry;
+}
+
 OdometryFigures printStepCosts(const StepCost* costs, std::int32_t count) {
   Line()
       .text("instructions per step (update + solve; QEMU -icount shift=0, resolution ")

@@ -26,6 +26,10 @@ struct StepCost {
   lslam::UpdateResult result;
 };
 
+// The kind of an online step, from what the stream says it measures and what the solver reports.
+StepKind stepKind(bool first, bool loop_closure, bool landmark_observation,
+                  const lslam::UpdateResult& result);
+
 // How constant the odometry steps are, in percent.
 struct OdometryFigures {
   double first_to_last = 0.0;  // (last - first) / first
