@@ -91,6 +91,40 @@ int arity(FactorKind kind) {
   }
 }
 
+VariableRole roleOf(VariableKind kind) {
+  return kind == VariableKind::SE2 || kind == VariableKind::SE3 ? VariableRole::Pose
+                                                                : VariableRole::Landmark;
+}
+
+const char* roleName(VariableRole role) {
+  return role == VariableRole::Pose ? "pose" : "landmark";
+}
+
+int dimensionOf(VariableKind kind) {
+  return kind == VariableKind::SE2 || kind == VariableKind::Point2 ? 2 : 3;
+}
+
+std::pair<VariableKind, VariableKind> endpointKinds(FactorKind kind) {
+  switch (kind) {
+    case FactorKind::PriorSE2:
+    case FactorKind::BetweenSE2:
+      return {VariableKind::SE2, VariableKind::SE2};
+    case FactorKind::PriorPoint2:
+      return {VariableKind::Point2, VariableKind::Point2};
+    case FactorKind::PointXY2:
+    case FactorKind::RangeBearing2:
+      return {VariableKind::SE2, VariableKind::Point2};
+    case FactorKind::PriorSE3:
+    case FactorKind::BetweenSE3:
+      return {VariableKind::SE3, VariableKind::SE3};
+    case FactorKind::PriorPoint3:
+      return {VariableKind::Point3, VariableKind::Point3};
+    case FactorKind::PointXYZ3:
+      return {VariableKind::SE3, VariableKind::Point3};
+  }
+  std::abort();
+}
+
 VariableKind kindOfRole(VariableRole role, int dimension) {
   if (role == VariableRole::Pose) return dimension == 2 ? VariableKind::SE2 : VariableKind::SE3;
   return dimension == 2 ? VariableKind::Point2 : VariableKind::Point3;

@@ -16,6 +16,7 @@
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "host_sim/dataset.h"
@@ -47,6 +48,11 @@ struct VariableKeyHash {
 
 // The kind of a variable of `role` in a model of `dimension` (2 or 3): SE2/SE3 or Point2/Point3.
 VariableKind kindOfRole(VariableRole role, int dimension);
+// The role of a kind's variables (SE2/SE3: Pose; Point2/Point3: Landmark), its name ("pose",
+// "landmark"), and the dimension of a kind's model (2 or 3).
+VariableRole roleOf(VariableKind kind);
+const char* roleName(VariableRole role);
+int dimensionOf(VariableKind kind);
 
 enum class FactorKind {
   PriorSE2,       // z: SE2; variables: {pose}
@@ -62,6 +68,9 @@ enum class FactorKind {
 const char* factorKindName(FactorKind kind);
 int errorDimension(FactorKind kind);  // 3, 3, 2, 2, 2, 6, 6, 3, 3
 int arity(FactorKind kind);           // 1 or 2
+// The kinds of the variables a two-variable factor connects, in its order (a prior: its kind
+// twice).
+std::pair<VariableKind, VariableKind> endpointKinds(FactorKind kind);
 
 struct ModelVertex {
   VariableKey key;
