@@ -8,7 +8,6 @@
 #include <initializer_list>
 #include <istream>
 #include <optional>
-#include <stdexcept>
 #include <string_view>
 #include <unordered_map>
 #include <utility>
@@ -24,7 +23,6 @@ namespace {
 
 using parsing::FieldParser;
 using parsing::formatDouble;
-using parsing::kMaxId;
 using parsing::show;
 using records::factorTag;
 using records::isPositiveDefinite;
@@ -606,8 +604,8 @@ class Reader {
             const ModelVertex& v = d_.vertices[it->second];
             reason = describe(f) + " names " + roleName(key.role) + " " + std::to_string(key.id) +
                      ", but " + vertexTag(v.kind, d_.format) + " at line " +
-                     std::to_string(v.line) + " declares id " + std::to_string(key.id) + " as " +
-                     "a " + roleName(roleOf(v.kind)) + " (g2o ids are one space)";
+                     std::to_string(v.line) + " declares id " + std::to_string(key.id) + " as a " +
+                     roleName(roleOf(v.kind)) + " (g2o ids are one space)";
           }
         } else {
           const auto [it, inserted] = used.emplace(key.id, std::pair{kind, f.line});

@@ -1,14 +1,16 @@
+#include "host_sim/model_dataset_io.h"
+
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <initializer_list>
 #include <ostream>
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
 #include <utility>
 
-#include "host_sim/model_dataset_io.h"
 #include "model_records.h"
 #include "record_parsing.h"
 

@@ -1,6 +1,7 @@
 #pragma once
-// What the model dataset reader and the g2o writer both know of the records: each kind's record
-// name, and the checks a written record must pass to read back as it was.
+// Private to host_sim/src: what the model dataset reader and the g2o writer both know of the
+// records: each kind's record name, and the checks a written record must pass to read back as it
+// was.
 #include <Eigen/Core>
 #include <string>
 

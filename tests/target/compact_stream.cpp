@@ -32,6 +32,7 @@ namespace {
 namespace stream = lslam::stream::grid2d_20000_compact;
 using lslam::PoseSlam2D;
 using lslam::SE2;
+using lslam::target::kPerturbedBuild;
 using lslam::target::Line;
 using Closure = lslam::PlaceClosure<SE2>;
 
@@ -45,7 +46,6 @@ constexpr double kRamLimit = 512.0 * 1024.0;
 using Solver = lslam::StaticSmoother<PoseSlam2D, stream::kMaxPoses, 0, stream::kMaxFactors,
                                      stream::kMaxFactors * 12, stream::kFactorBlocks, 0>;
 
-// The options of the host's run of the stream (compact_stream_header.cpp).
 Solver g_solver(lslam::target::hostRunnerOptions<PoseSlam2D>());  // in .bss
 lslam::CompactPoseGraph<PoseSlam2D> g_graph(g_solver);
 std::uint64_t g_worst[kBlocks];
@@ -71,7 +71,7 @@ lslam::Status runStep(std::int32_t s, std::int32_t& next_closure, std::uint64_t&
     if (count == 4) return lslam::Status::InvalidArgument;
     const stream::CompactClosure& c = stream::kClosures[next_closure];
     SE2 z = pose(c.z);
-    if (lslam::target::kPerturbedBuild && next_closure == kPerturbedClosure)
+    if (kPerturbedBuild && next_closure == kPerturbedClosure)
       z = SE2(z.x() + kPerturbation, z.y(), z.theta());
     closures[count++] =
         Closure{lslam::Place<SE2>{c.node, SE2(), lslam::Mat3::Zero()}, z, closure_information};
@@ -165,6 +165,7 @@ int main() {
   const auto step = [&next_closure](std::int32_t s) {
     std::uint64_t cost = 0;
     const lslam::Status status = runStep(s, next_closure, cost);
+    if (status != lslam::Status::Ok) return status;
     std::uint64_t& worst = g_worst[s / kBlock];
     if (cost > worst) worst = cost;
     return status;

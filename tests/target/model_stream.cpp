@@ -185,6 +185,7 @@ int main() {
   lslam::Index peak_blocks = 0;
   const auto step = [&peak_blocks](std::int32_t s) {
     const lslam::Status status = runStep(s);
+    if (status != lslam::Status::Ok) return status;
     if (g_solver.factorBlocks() > peak_blocks) peak_blocks = g_solver.factorBlocks();
     return status;
   };

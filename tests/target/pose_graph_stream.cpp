@@ -21,6 +21,7 @@ namespace {
 
 namespace stream = lslam::stream::manhattan_world_500;
 using lslam::PoseSlam2D;
+using lslam::target::hostRunnerOptions;
 using lslam::target::kPerturbedBuild;
 using lslam::target::Line;
 using lslam::target::printValue;
@@ -48,8 +49,8 @@ constexpr double kBytesPerBlock = (kBytes<512, 1024, 32768> - kBytes<512, 1024, 
 constexpr double kFixedBytes = kBytes<512, 1024, 16384> - 512 * kBytesPerPose -
                                1024 * kBytesPerFactor - 16384 * kBytesPerBlock;
 
-Solver g_solver(
-    lslam::target::hostRunnerOptions<PoseSlam2D>());  // in .bss: 1.7 MB of the board's 4 MB of RAM
+// In .bss: 1.7 MB of the board's 4 MB of RAM.
+Solver g_solver(hostRunnerOptions<PoseSlam2D>());
 StepCost g_costs[stream::kNumSteps];
 
 // The measurement as the solver sees it (with the test-only corruption, if built in).
@@ -100,7 +101,8 @@ lslam::Status runStep(std::int32_t s) {
   StepCost& cost = g_costs[s];
   const lslam::Status status = lslam::target::timedStep(
       g_solver, &pose, 1, factors, step.factor_count, &cost.result, &cost.instructions);
-  cost.kind = stepKind(step.factor_count == 0, step.loop_closure, false, cost.result);
+  cost.kind = stepKind(step.factor_count == 0, step.loop_closure, /*landmark_observation=*/false,
+                       cost.result);
   return status;
 }
 

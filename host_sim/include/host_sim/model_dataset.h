@@ -68,7 +68,7 @@ enum class FactorKind {
 const char* factorKindName(FactorKind kind);
 int errorDimension(FactorKind kind);  // 3, 3, 2, 2, 2, 6, 6, 3, 3
 int arity(FactorKind kind);           // 1 or 2
-// The kinds of the variables a two-variable factor connects, in its order (a prior: its kind
+// The kinds of the variables a factor connects, in its order (a prior, of arity 1: its one kind
 // twice).
 std::pair<VariableKind, VariableKind> endpointKinds(FactorKind kind);
 
