@@ -14,6 +14,7 @@
 #include <unordered_map>
 
 #include "lslam/factors/information.h"
+#include "lslam/geometry/coordinate_range.h"
 #include "record_parsing.h"
 
 namespace lslam::sim {
@@ -82,8 +83,8 @@ Vertex2D parseVertex(const std::string& file, const Record& r) {
   p.expectFields(5);
   Vertex2D v;
   v.id = p.id(1, "id");
-  v.pose.x = p.number(2, "x");
-  v.pose.y = p.number(3, "y");
+  v.pose.x = p.coordinate(2, "x");
+  v.pose.y = p.coordinate(3, "y");
   v.pose.theta = p.number(4, "theta");
   v.line = r.line;
   return v;
@@ -96,8 +97,8 @@ Edge2D parseEdge(const std::string& file, const Record& r, DatasetFormat format)
   Edge2D e;
   e.from = p.id(1, "from");
   e.to = p.id(2, "to");
-  e.measurement.x = p.number(3, "dx");
-  e.measurement.y = p.number(4, "dy");
+  e.measurement.x = p.coordinate(3, "dx");
+  e.measurement.y = p.coordinate(4, "dy");
   e.measurement.theta = p.number(5, "dtheta");
   const auto& names = format == DatasetFormat::G2o    ? kInfoFieldsG2o
                       : format == DatasetFormat::Toro ? kInfoFieldsToro
@@ -298,6 +299,16 @@ void checkFinite(double v, const std::string& what) {
   if (!std::isfinite(v)) throw std::invalid_argument("writeG2o: " + what + ": non-finite value");
 }
 
+// A position or translation coordinate: finite and within the readers' coordinate range.
+void checkCoordinate(double v, const std::string& what) {
+  checkFinite(v, what);
+  if (!(std::abs(v) <= kMaxCoordinate)) {
+    throw std::invalid_argument(
+        "writeG2o: " + what + ": coordinate " + formatDouble(v) +
+        " beyond the coordinate range (|value| <= " + formatDouble(kMaxCoordinate) + " m)");
+  }
+}
+
 }  // namespace
 
 const char* formatName(DatasetFormat format) {
@@ -335,8 +346,8 @@ void writeG2o(std::ostream& out, const std::vector<Vertex2D>& vertices,
     const Vertex2D& v = vertices[k];
     const std::string what = "vertex #" + std::to_string(k) + " (id " + std::to_string(v.id) + ")";
     checkId(v.id, what);
-    checkFinite(v.pose.x, what);
-    checkFinite(v.pose.y, what);
+    checkCoordinate(v.pose.x, what);
+    checkCoordinate(v.pose.y, what);
     checkFinite(v.pose.theta, what);
   }
   for (std::size_t k = 0; k < edges.size(); ++k) {
@@ -346,8 +357,8 @@ void writeG2o(std::ostream& out, const std::vector<Vertex2D>& vertices,
     checkId(e.from, what);
     checkId(e.to, what);
     if (e.from == e.to) throw std::invalid_argument("writeG2o: " + what + ": from == to");
-    checkFinite(e.measurement.x, what);
-    checkFinite(e.measurement.y, what);
+    checkCoordinate(e.measurement.x, what);
+    checkCoordinate(e.measurement.y, what);
     checkFinite(e.measurement.theta, what);
     if (!e.information.allFinite()) {
       throw std::invalid_argument("writeG2o: " + what + ": non-finite information");

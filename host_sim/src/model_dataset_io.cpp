@@ -341,9 +341,12 @@ class Reader {
     v.key = VariableKey{roleOf(kind), p.id(1, "id")};
     v.kind = kind;
     v.value.resize(static_cast<Eigen::Index>(names.size()));
+    // Every kind's values begin with its position (x y, or x y z).
+    const Eigen::Index positions = dimensionOf(kind);
     Eigen::Index k = 0;
     for (const char* field : names) {
-      v.value[k] = p.number(static_cast<std::size_t>(2 + k), field);
+      const auto i = static_cast<std::size_t>(2 + k);
+      v.value[k] = k < positions ? p.coordinate(i, field) : p.number(i, field);
       ++k;
     }
     if (kind == VariableKind::SE3)
@@ -384,7 +387,8 @@ class Reader {
     p.expectFields(12);
     const std::int64_t i = p.id(1, "from");
     const std::int64_t j = p.id(2, "to");
-    const std::vector<double> z = {p.number(3, "dx"), p.number(4, "dy"), p.number(5, "dtheta")};
+    const std::vector<double> z = {p.coordinate(3, "dx"), p.coordinate(4, "dy"),
+                                   p.number(5, "dtheta")};
     Eigen::MatrixXd m;
     if (d_.format == DatasetFormat::Toro) {
       static const std::array<const char*, 6> kNames = {"inf_ff", "inf_fs", "inf_ss",
@@ -423,8 +427,8 @@ class Reader {
     const bool range_bearing = r.tag == Tag::EdgeSE2RangeBearing;
     const std::int64_t pose = p.id(1, "pose");
     const std::int64_t lm = p.id(2, "landmark");
-    const std::vector<double> z = {p.number(3, range_bearing ? "range" : "dx"),
-                                   p.number(4, range_bearing ? "bearing" : "dy")};
+    const std::vector<double> z = {p.coordinate(3, range_bearing ? "range" : "dx"),
+                                   range_bearing ? p.number(4, "bearing") : p.coordinate(4, "dy")};
     if (range_bearing) {
       if (const std::string why = rangeBearingProblem(z[0], z[1]); !why.empty())
         p.fail(std::string(r.tokens[0]) + ": " + why);
@@ -455,7 +459,9 @@ class Reader {
     const std::int64_t j = p.id(2, "to");
     static const std::array<const char*, 7> kNames = {"x", "y", "z", "qx", "qy", "qz", "qw"};
     std::vector<double> z;
-    for (std::size_t k = 0; k < 7; ++k) z.push_back(p.number(3 + k, kNames[k]));
+    for (std::size_t k = 0; k < 7; ++k) {
+      z.push_back(k < 3 ? p.coordinate(3 + k, kNames[k]) : p.number(3 + k, kNames[k]));
+    }
     const std::vector<double> upper = readTriangle(p, 10, 6, 'I');
     selfEdge(p, r, i, j);
     checkQuaternion(p, r, z[3], z[4], z[5], z[6]);
@@ -500,7 +506,8 @@ class Reader {
       }
       ++k;
     }
-    const std::vector<double> z = {p.number(k, "x"), p.number(k + 1, "y"), p.number(k + 2, "z")};
+    const std::vector<double> z = {p.coordinate(k, "x"), p.coordinate(k + 1, "y"),
+                                   p.coordinate(k + 2, "z")};
     Eigen::MatrixXd m;
     if (isam) {
       const Eigen::MatrixXd sr = n == full ? upperFromValues(readTriangle(p, k + 3, 3, 'R'), 3)
@@ -527,9 +534,9 @@ class Reader {
     }
     const std::int64_t i = p.id(1, "from");
     const std::int64_t j = p.id(2, "to");
-    const double x = p.number(3, "x");
-    const double y = p.number(4, "y");
-    const double z = p.number(5, "z");
+    const double x = p.coordinate(3, "x");
+    const double y = p.coordinate(4, "y");
+    const double z = p.coordinate(5, "z");
     const double roll = p.number(6, "roll");
     const double pitch = p.number(7, "pitch");
     const double yaw = p.number(8, "yaw");

@@ -11,6 +11,7 @@
 #include <unordered_map>
 #include <utility>
 
+#include "lslam/geometry/coordinate_range.h"
 #include "model_records.h"
 #include "record_parsing.h"
 
@@ -36,12 +37,22 @@ void checkId(std::int64_t id, const std::string& what) {
   }
 }
 
-void checkValues(const Eigen::VectorXd& v, Eigen::Index size, bool has_quaternion,
-                 const std::string& what) {
+// The values of a `kind` (a vertex's, or the measurement of a factor that predicts one): their
+// count, finite, the position (the first dimensionOf(kind) values) within the readers' coordinate
+// range, and a unit quaternion for SE3.
+void checkValues(const Eigen::VectorXd& v, VariableKind kind, const std::string& what) {
+  const Eigen::Index size = parameterCount(kind);
   if (v.size() != size) {
     reject(what, std::to_string(v.size()) + " values, expected " + std::to_string(size));
   }
   if (!v.allFinite()) reject(what, "non-finite value");
+  const double position = v.head(dimensionOf(kind)).cwiseAbs().maxCoeff();
+  if (!(position <= kMaxCoordinate)) {
+    reject(what, "coordinate " + formatDouble(position) +
+                     " beyond the coordinate range (|value| <= " + formatDouble(kMaxCoordinate) +
+                     " m)");
+  }
+  const bool has_quaternion = kind == VariableKind::SE3;
   if (has_quaternion) {
     const double norm = v.tail<4>().norm();
     if (!(std::abs(norm - 1.0) <= kQuaternionNormTolerance)) {
@@ -69,7 +80,7 @@ void validate(const ModelDataset& d) {
     if (dimensionOf(v.kind) != d.dimension) {
       reject(what, "not a " + std::to_string(d.dimension) + "D variable (dataset dimension)");
     }
-    checkValues(v.value, parameterCount(v.kind), v.kind == VariableKind::SE3, what);
+    checkValues(v.value, v.kind, what);
     if (!vertex_index.emplace(v.key.id, k).second) {
       reject(what, "duplicate vertex id (poses and landmarks share one g2o id space)");
     }
@@ -102,9 +113,7 @@ void validate(const ModelDataset& d) {
     if (f.first.id == f.second.id) {
       reject(what, "both ids are equal (g2o ids are one space; no edge from a pose to itself)");
     }
-    const VariableKind predicted = kind2;
-    checkValues(f.measurement, parameterCount(predicted), predicted == VariableKind::SE3,
-                what + " measurement");
+    checkValues(f.measurement, kind2, what + " measurement");  // the kind it predicts
     if (f.kind == FactorKind::RangeBearing2) {
       const std::string why = rangeBearingProblem(f.measurement[0], f.measurement[1]);
       if (!why.empty()) reject(what + " measurement", why);

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "host_sim/dataset.h"
+#include "lslam/geometry/coordinate_range.h"
 
 namespace lslam::sim::parsing {
 
@@ -222,6 +223,17 @@ class FieldParser {
     if (res.ec != std::errc()) fail(where(field) + ": " + show(t) + " is not a number");
     if (!std::isfinite(v)) {
       fail(where(field) + ": non-finite value " + show(t));
+    }
+    return v;
+  }
+
+  // A position coordinate, a translation or a range (metres): a number() within the solver's
+  // bound (lslam::kMaxCoordinate), so that the reader rejects at its line what the solver would.
+  double coordinate(std::size_t i, const char* field) const {
+    const double v = number(i, field);
+    if (!(std::abs(v) <= kMaxCoordinate)) {
+      fail(where(field) + ": " + show(tokens_[i]) +
+           " is beyond the coordinate range (|value| <= " + formatDouble(kMaxCoordinate) + " m)");
     }
     return v;
   }

@@ -3,9 +3,16 @@
 // error dimension, error, Jacobians and input check) with consistent sizes.
 #include <doctest/doctest.h>
 
+#include <cmath>
 #include <limits>
 #include <type_traits>
 
+#include "lslam/factors/landmark_2d_factors.h"
+#include "lslam/factors/point_observation_3d.h"
+#include "lslam/factors/point_priors.h"
+#include "lslam/factors/se2_factors.h"
+#include "lslam/factors/se3_factors.h"
+#include "lslam/geometry/coordinate_range.h"
 #include "lslam/models/model_traits.h"
 #include "lslam/models/slam_2d.h"
 #include "lslam/models/slam_3d.h"
@@ -104,6 +111,57 @@ TEST_CASE("validateValue rejects what no variable kind can hold") {
   // A measurement goes through the same check inside its factor kind's validate.
   CHECK(lslam::BetweenSE3Factor::validate(lslam::SE3(lslam::SO3(long_q), lslam::Vec3::Zero()),
                                           lslam::Mat6::Identity()) == Status::InvalidArgument);
+}
+
+TEST_CASE("validateValue and the factors' checks bound every position coordinate") {
+  using lslam::Status;
+  constexpr double kMax = lslam::kMaxCoordinate;
+  const double inf = std::numeric_limits<double>::infinity();
+  const double beyond = std::nextafter(kMax, inf);
+  const lslam::SO3 unit;
+  const lslam::Mat2 i2 = lslam::Mat2::Identity();
+  const lslam::Mat3 i3 = lslam::Mat3::Identity();
+  // At the bound, each sign, each coordinate: accepted; one ulp beyond: InvalidArgument.
+  for (const double sign : {1.0, -1.0}) {
+    for (int axis = 0; axis < 3; ++axis) {
+      CAPTURE(sign);
+      CAPTURE(axis);
+      lslam::Vec3 at = lslam::Vec3::Zero();
+      lslam::Vec3 past = lslam::Vec3::Zero();
+      at[axis] = sign * kMax;
+      past[axis] = sign * beyond;
+      const bool planar = axis < 2;
+      if (planar) {
+        CHECK(lslam::validateValue(lslam::SE2(at.x(), at.y(), 0.0)) == Status::Ok);
+        CHECK(lslam::validateValue(lslam::SE2(past.x(), past.y(), 0.0)) == Status::InvalidArgument);
+        CHECK(lslam::validateValue(lslam::Point2(at.head<2>())) == Status::Ok);
+        CHECK(lslam::validateValue(lslam::Point2(past.head<2>())) == Status::InvalidArgument);
+        CHECK(lslam::validatePointObservationSE2(at.head<2>(), i2) == Status::Ok);
+        CHECK(lslam::validatePointObservationSE2(past.head<2>(), i2) == Status::InvalidArgument);
+        CHECK(lslam::validatePriorPoint2(lslam::Point2(past.head<2>()), i2) ==
+              Status::InvalidArgument);
+        CHECK(lslam::BetweenSE2Factor::validate(lslam::SE2(past.x(), past.y(), 0.0), i3) ==
+              Status::InvalidArgument);
+      }
+      CHECK(lslam::validateValue(lslam::SE3(unit, at)) == Status::Ok);
+      CHECK(lslam::validateValue(lslam::SE3(unit, past)) == Status::InvalidArgument);
+      CHECK(lslam::validateValue(lslam::Point3(at)) == Status::Ok);
+      CHECK(lslam::validateValue(lslam::Point3(past)) == Status::InvalidArgument);
+      CHECK(lslam::validatePointObservationSE3(at, i3) == Status::Ok);
+      CHECK(lslam::validatePointObservationSE3(past, i3) == Status::InvalidArgument);
+      CHECK(lslam::validatePriorPoint3(lslam::Point3(past), i3) == Status::InvalidArgument);
+      CHECK(lslam::BetweenSE3Factor::validate(lslam::SE3(unit, past), lslam::Mat6::Identity()) ==
+            Status::InvalidArgument);
+    }
+  }
+  // An angle is only wrapped, not bounded; a range is a distance, bounded as a coordinate.
+  CHECK(lslam::validateValue(lslam::SE2(0.0, 0.0, 1e300)) == Status::Ok);
+  CHECK(lslam::validateRangeBearingSE2(lslam::Vec2(kMax, 0.5), i2) == Status::Ok);
+  CHECK(lslam::validateRangeBearingSE2(lslam::Vec2(beyond, 0.5), i2) == Status::InvalidArgument);
+  // Non-finite stays NonFiniteInput, also next to a coordinate beyond the bound.
+  CHECK(lslam::validateValue(lslam::SE3(unit, lslam::Vec3(2.0 * kMax, inf, 0.0))) ==
+        Status::NonFiniteInput);
+  CHECK(lslam::validateValue(lslam::Point2(2.0 * kMax, -inf)) == Status::NonFiniteInput);
 }
 
 }  // namespace

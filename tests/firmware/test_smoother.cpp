@@ -660,6 +660,12 @@ TEST_CASE("Slam2D: a rejected update of each kind changes nothing") {
         }
         *expected = Status::CapacityExhausted;
         break;
+      case 5:  // a landmark placed beyond kMaxCoordinate (finite, absurd)
+        bad.variables.push_back(Var::make(4000, Point2(Vec2(0.0, 2.0 * lslam::kMaxCoordinate))));
+        bad.factors.push_back(Fac::make<lslam::PointObservationSE2Factor>(
+            n - 1, 4000, Vec2(1.0, 0.0), Mat2::Identity()));
+        *expected = Status::InvalidArgument;
+        break;
       default:  // information not positive definite
         bad.factors[0] = Fac::make<lslam::BetweenSE2Factor>(n - 1, n, SE2(), -Mat3::Identity());
         *expected = Status::InformationNotPositiveDefinite;
@@ -667,7 +673,7 @@ TEST_CASE("Slam2D: a rejected update of each kind changes nothing") {
     }
     return bad;
   };
-  checkRejections(stream, *solver, *twin, 6, make);
+  checkRejections(stream, *solver, *twin, 7, make);
 }
 
 TEST_CASE("Slam3D: a rejected update of each kind changes nothing") {
@@ -708,6 +714,12 @@ TEST_CASE("Slam3D: a rejected update of each kind changes nothing") {
             n + 1000, 3001, Vec3(1, 0, 0), Mat3::Identity()));
         *expected = Status::UnconstrainedVariable;
         break;
+      case 5:  // a translation beyond kMaxCoordinate (finite, absurd)
+        bad.factors[0] = Fac::make<lslam::BetweenSE3Factor>(
+            n - 1, n, SE3(lslam::SO3(), Vec3(0.0, 0.0, -1.5 * lslam::kMaxCoordinate)),
+            Mat6::Identity());
+        *expected = Status::InvalidArgument;
+        break;
       default:  // more poses than the capacity
         for (int p = 0; p < Smoother3D::max_poses; ++p) {
           bad.variables.push_back(Var::make(5000 + p, SE3()));
@@ -719,7 +731,7 @@ TEST_CASE("Slam3D: a rejected update of each kind changes nothing") {
     }
     return bad;
   };
-  checkRejections(stream, *solver, *twin, 6, make);
+  checkRejections(stream, *solver, *twin, 7, make);
 }
 
 // ---- reorder() ----------------------------------------------------------------------------------

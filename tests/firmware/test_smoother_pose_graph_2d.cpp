@@ -792,23 +792,36 @@ std::vector<BadCall> badCalls(VariableId n, const SE2& step) {
        {},
        {withKind(between(n / 2, n + 47, step), 255)},
        Status::InvalidArgument},
-      // Information and error each finite, their product (eta = J^T Omega e) not: 1e300 x 1e10.
+      {"a translation beyond kMaxCoordinate",
+       {next},
+       {between(n - 1, n, SE2(std::nextafter(lslam::kMaxCoordinate, inf), 0.0, 0.0))},
+       Status::InvalidArgument},
+      {"an initial value beyond kMaxCoordinate",
+       {Var::make(n, SE2(0.0, -2.0 * lslam::kMaxCoordinate, 0.0))},
+       {between(n - 1, n, step)},
+       Status::InvalidArgument},
+      // Information and error each finite, their product (eta = J^T Omega e) not: 1e300 x 1e9 (an
+      // error at kMaxCoordinate).
       {"information times error beyond a double",
        {next},
-       {withInformation(between(n - 1, n, SE2(1e10, 0.0, 0.0)), Mat3::Identity() * 1e300)},
+       {withInformation(between(n - 1, n, SE2(lslam::kMaxCoordinate, 0.0, 0.0)),
+                        Mat3::Identity() * 1e300)},
        Status::NumericalOverflow,
        true},
       {"the same as a loop closure",
        {next},
        {between(n - 1, n, step),
-        withInformation(between(n / 2, n - 1, SE2(-1e10, 1e10, 0.0)), Mat3::Identity() * 1e300)},
+        withInformation(
+            between(n / 2, n - 1, SE2(-lslam::kMaxCoordinate, lslam::kMaxCoordinate, 0.0)),
+            Mat3::Identity() * 1e300)},
        Status::NumericalOverflow,
        true},
       // A loop closure alone, between existing poses (the row update's own check is tested in
       // test_incremental_cholesky).
       {"a loop closure alone",
        {},
-       {withInformation(between(n / 2, n - 1, SE2(1e200, 0.0, 0.0)), Mat3::Identity() * 1e300)},
+       {withInformation(between(n / 2, n - 1, SE2(lslam::kMaxCoordinate, 0.0, 0.0)),
+                        Mat3::Identity() * 1e300)},
        Status::NumericalOverflow,
        true},
   };

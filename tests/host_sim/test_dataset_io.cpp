@@ -21,6 +21,7 @@
 
 #include "host_sim/cli_args.h"
 #include "host_sim/dataset_io.h"
+#include "lslam/geometry/coordinate_range.h"
 
 using lslam::sim::Dataset2D;
 using lslam::sim::DatasetError;
@@ -617,6 +618,19 @@ double randomDouble(std::mt19937_64& rng) {
   }
 }
 
+// A position coordinate of every kind randomDouble draws, within the readers' coordinate range
+// (lslam::kMaxCoordinate), the bound itself included.
+double randomCoordinate(std::mt19937_64& rng) {
+  if (std::uniform_int_distribution<int>(0, 9)(rng) == 0) {
+    return std::uniform_int_distribution<int>(0, 1)(rng) == 0 ? lslam::kMaxCoordinate
+                                                              : -lslam::kMaxCoordinate;
+  }
+  for (;;) {
+    const double v = randomDouble(rng);
+    if (std::abs(v) <= lslam::kMaxCoordinate) return v;
+  }
+}
+
 // A symmetric positive definite information over a wide range of scales, exactly symmetric.
 Eigen::Matrix3d randomInformation(std::mt19937_64& rng) {
   std::uniform_real_distribution<double> u(-1.0, 1.0);
@@ -656,7 +670,7 @@ TEST_CASE("writeG2o -> parseDataset2D is bit-exact") {
     std::shuffle(ids.begin(), ids.end(), rng);
     for (const std::int64_t id : ids) {
       vertices.push_back(
-          Vertex2D{id, {randomDouble(rng), randomDouble(rng), randomDouble(rng)}, 0});
+          Vertex2D{id, {randomCoordinate(rng), randomCoordinate(rng), randomDouble(rng)}, 0});
     }
     std::vector<Edge2D> edges;
     std::uniform_int_distribution<std::size_t> pick(0, ids.size() - 1);
@@ -666,7 +680,7 @@ TEST_CASE("writeG2o -> parseDataset2D is bit-exact") {
       do {
         e.to = ids[pick(rng)];
       } while (e.to == e.from);
-      e.measurement = {randomDouble(rng), randomDouble(rng), randomDouble(rng)};
+      e.measurement = {randomCoordinate(rng), randomCoordinate(rng), randomDouble(rng)};
       e.information = randomInformation(rng);
       edges.push_back(e);
     }
@@ -750,6 +764,18 @@ TEST_CASE("writeG2o rejects what the readers would reject, before writing anythi
       Edge2D e = good_e;
       e.information(i) = bad;
       rejects(good_v, {e}, {}, "non-finite information");
+    }
+  }
+  // A position beyond the coordinate range, either sign; an angle is not bounded (it is wrapped).
+  const double beyond = std::nextafter(lslam::kMaxCoordinate, inf);
+  for (const double bad : {beyond, -beyond}) {
+    for (int field = 0; field < 2; ++field) {
+      std::vector<Vertex2D> v = good_v;
+      (field == 0 ? v[1].pose.x : v[1].pose.y) = bad;
+      rejects(v, {good_e}, {}, "beyond the coordinate range");
+      Edge2D e = good_e;
+      (field == 0 ? e.measurement.x : e.measurement.y) = bad;
+      rejects(good_v, {e}, {}, "beyond the coordinate range");
     }
   }
   for (const std::int64_t id : {std::int64_t{-1}, too_big, std::numeric_limits<std::int64_t>::min(),

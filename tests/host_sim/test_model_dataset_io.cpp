@@ -32,6 +32,7 @@
 #include "host_sim/model_dataset.h"
 #include "host_sim/model_dataset_io.h"
 #include "host_sim/model_run.h"
+#include "lslam/geometry/coordinate_range.h"
 
 using lslam::sim::DatasetError;
 using lslam::sim::DatasetFormat;
@@ -518,6 +519,57 @@ TEST_CASE("errors: quaternions, information, field counts and numbers give their
               {"overflows"});
 }
 
+TEST_CASE("errors: a position, translation or range beyond the coordinate range gives its line") {
+  // lslam::kMaxCoordinate (1e9 m) is read; the next double above it, in any position field of any
+  // record, is the solver's InvalidArgument, reported here at its line.
+  const std::string id3 = "1 0 0 1 0 1";
+  const std::string id6 = "1 0 0 0 0 0 1 0 0 0 0 1 0 0 0 1 0 0 1 0 1";
+  const std::string at = "1e9";
+  const std::string past = "1000000000.0000001";
+  REQUIRE(std::stod(past) == std::nextafter(lslam::kMaxCoordinate, 2e9));
+  const std::string se2 = "VERTEX_SE2 0 0 0 0";
+  const std::string se3 = "VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1";
+  struct Case {
+    Lines lines;  // the last line holds `@`, replaced by `at` (read) and by `past` (rejected)
+    std::string name;
+    std::string field;
+  };
+  const std::vector<Case> cases = {
+      {{"VERTEX_SE2 0 @ 0 0"}, "t.g2o", "VERTEX_SE2 field x"},
+      {{se2, "VERTEX_XY 1 0 -@"}, "t.g2o", "VERTEX_XY field y"},
+      {{se2, "VERTEX_SE2 1 0 0 0", "EDGE_SE2 0 1 1 @ 0 1 0 0 1 0 1"}, "t.g2o", "EDGE_SE2 field dy"},
+      {{se2, "VERTEX_XY 1 0 0", "EDGE_SE2_XY 0 1 -@ 0 1 0 1"}, "t.g2o", "EDGE_SE2_XY field dx"},
+      {{se2, "VERTEX_XY 1 0 0", "EDGE_SE2_RANGE_BEARING 0 1 @ 0.5 1 0 1"},
+       "t.g2o",
+       "EDGE_SE2_RANGE_BEARING field range"},
+      {{"VERTEX_SE3:QUAT 0 0 0 @ 0 0 0 1"}, "t.g2o", "VERTEX_SE3:QUAT field z"},
+      {{se3, "VERTEX_TRACKXYZ 1 @ 0 0"}, "t.g2o", "VERTEX_TRACKXYZ field x"},
+      {{se3, "VERTEX_SE3:QUAT 1 0 0 0 0 0 0 1", "EDGE_SE3:QUAT 0 1 0 -@ 0 0 0 0 1 " + id6},
+       "t.g2o",
+       "EDGE_SE3:QUAT field y"},
+      {{se3, "VERTEX_TRACKXYZ 1 0 0 0", "EDGE_SE3_TRACKXYZ 0 1 0 0 @ " + id3},
+       "t.g2o",
+       "EDGE_SE3_TRACKXYZ field z"},
+      {{"VERTEX2 0 @ 0 0"}, "t.graph", "VERTEX2 field x"},
+      {{"ODOMETRY 0 1 @ 0 0 1 0 0 1 0 1"}, "t.txt", "ODOMETRY field dx"},
+      {{"ODOMETRY 0 1 1 0 0 1 0 0 1 0 1", "LANDMARK 1 2 1 -@ 1 0 1"}, "t.txt", "LANDMARK field dy"},
+      {{"EDGE3 0 1 0 @ 0 0 0 0"}, "t.txt", "EDGE3 field y"},
+      {{"EDGE3 0 1 0 0 0 0 0 0", "POINT3 1 0 1 2 @ " + id3}, "t.txt", "POINT3 field z"},
+  };
+  for (const Case& c : cases) {
+    const auto with = [&](const std::string& value) {
+      Lines lines = c.lines;
+      std::string& last = lines.back();
+      last.replace(last.find('@'), 1, value);
+      return lines;
+    };
+    CAPTURE(c.field);
+    CHECK_NOTHROW(parse(with(at), c.name));
+    expectError(with(past), c.name, c.lines.size(),
+                {c.field, past + "'", "beyond the coordinate range"});
+  }
+}
+
 TEST_CASE("errors: sensor offsets of EDGE_SE3_TRACKXYZ") {
   const std::string v0 = "VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1";
   const std::string p = "VERTEX_TRACKXYZ 1 0 0 0";
@@ -727,8 +779,10 @@ TEST_CASE("random single-token corruptions parse or throw DatasetError within th
 namespace {
 
 // Doubles that need all 17 digits, tiny and huge magnitudes.
+// Values that print with many digits or none, tiny, signed zero, subnormal; the largest is within
+// the coordinate range (lslam::kMaxCoordinate) at every k used here (k / 7 <= 1).
 double awkward(int k) {
-  const double base[] = {0.1 + 0.2, 1.0 / 3.0, -2.0 / 7.0, 1e-300, 6.02214076e23, -0.0, 5e-324};
+  const double base[] = {0.1 + 0.2, 1.0 / 3.0, -2.0 / 7.0, 1e-300, 4.87654321e8, -0.0, 5e-324};
   return base[k % 7] * (1 + k / 7);
 }
 
@@ -950,6 +1004,21 @@ TEST_CASE("writeModelG2o rejects what the reader would reject, before writing an
     ModelDataset d = landmarks2d();
     d.factors[1].measurement[0] = std::nan("");
     expectRejected(d, "non-finite");
+  }
+  {
+    const double beyond = std::nextafter(lslam::kMaxCoordinate, 2e9);
+    ModelDataset d = landmarks2d();
+    d.factors[1].measurement[1] = -beyond;
+    expectRejected(d, "beyond the coordinate range");
+    d = points3d();
+    d.vertices[3].value[2] = beyond;  // the landmark's z
+    expectRejected(d, "beyond the coordinate range");
+    d = points3d();
+    d.factors[0].measurement[0] = beyond;  // an SE3 translation; its quaternion is not bounded
+    expectRejected(d, "beyond the coordinate range");
+    d = rangeBearing2d();
+    d.factors[5].measurement[0] = beyond;  // a range
+    expectRejected(d, "beyond the coordinate range");
   }
   {
     ModelDataset d = landmarks2d();

@@ -4,6 +4,7 @@
 
 #include "lslam/factors/information.h"
 #include "lslam/geometry/angle.h"
+#include "lslam/geometry/coordinate_range.h"
 #include "lslam/geometry/sin_cos.h"
 
 // Derivation. Let w = l - t (world frame) and d = R^T w, and J = [0 -1; 1 0], so that
@@ -44,8 +45,8 @@ Point2 landmarkFromPointObservationSE2(const SE2& x, const Vec2& z) noexcept {
 }
 
 Status validatePointObservationSE2(const Vec2& z, const Mat2& information) noexcept {
-  if (!z.allFinite()) return Status::NonFiniteInput;
-  return checkInformation(information);
+  const Status s = checkCoordinates(z);
+  return s != Status::Ok ? s : checkInformation(information);
 }
 
 Vec2 rangeBearingErrorSE2(const SE2& x, const Point2& l, const Vec2& z, Mat23* J_e_x,
@@ -84,6 +85,7 @@ Point2 landmarkFromRangeBearingSE2(const SE2& x, const Vec2& z) noexcept {
 Status validateRangeBearingSE2(const Vec2& z, const Mat2& information) noexcept {
   if (!z.allFinite()) return Status::NonFiniteInput;
   if (!(z(0) > 0.0)) return Status::InvalidArgument;  // see the header: zero is rejected too
+  if (z(0) > kMaxCoordinate) return Status::InvalidArgument;
   return checkInformation(information);
 }
 

@@ -1,6 +1,7 @@
 #include "lslam/factors/point_observation_3d.h"
 
 #include "lslam/factors/information.h"
+#include "lslam/geometry/coordinate_range.h"
 #include "lslam/geometry/so3.h"
 
 // Derivation. With d = R^T (l - t), x -> x Exp(rho, phi) moves t -> t + R rho and
@@ -24,8 +25,8 @@ Point3 landmarkFromPointObservationSE3(const SE3& x, const Vec3& z) noexcept {
 }
 
 Status validatePointObservationSE3(const Vec3& z, const Mat3& information) noexcept {
-  if (!z.allFinite()) return Status::NonFiniteInput;
-  return checkInformation(information);
+  const Status s = checkCoordinates(z);
+  return s != Status::Ok ? s : checkInformation(information);
 }
 
 }  // namespace lslam

@@ -15,13 +15,13 @@ Vec3 priorErrorPoint3(const Point3& x, const Point3& z, Mat3* J_e_x) noexcept {
 }
 
 Status validatePriorPoint2(const Point2& z, const Mat2& information) noexcept {
-  if (!z.vector().allFinite()) return Status::NonFiniteInput;
-  return checkInformation(information);
+  const Status s = validateValue(z);
+  return s != Status::Ok ? s : checkInformation(information);
 }
 
 Status validatePriorPoint3(const Point3& z, const Mat3& information) noexcept {
-  if (!z.vector().allFinite()) return Status::NonFiniteInput;
-  return checkInformation(information);
+  const Status s = validateValue(z);
+  return s != Status::Ok ? s : checkInformation(information);
 }
 
 }  // namespace lslam

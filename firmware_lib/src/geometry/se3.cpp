@@ -5,6 +5,7 @@
 #include <cstddef>
 
 #include "inverse_factorial.h"
+#include "lslam/geometry/coordinate_range.h"
 #include "lslam/geometry/sin_cos.h"
 #include "right_plus_minus.h"
 
@@ -185,8 +186,10 @@ Vec6 SE3::localCoordinates(const SE3& b, Mat6* J_t_a, Mat6* J_t_b) const noexcep
 }
 
 Status validateValue(const SE3& x) noexcept {
+  // Non-finite first, wherever it is: a NaN quaternion with a far translation is NonFiniteInput.
   if (!x.translation().allFinite()) return Status::NonFiniteInput;
-  return validateQuaternion(x.rotation().quaternion());
+  const Status rotation = validateQuaternion(x.rotation().quaternion());
+  return rotation != Status::Ok ? rotation : checkCoordinates(x.translation());
 }
 
 }  // namespace lslam

@@ -23,7 +23,7 @@ Vec2 pointObservationErrorSE2(const SE2& x, const Point2& l, const Vec2& z, Mat2
 // l = t + R z: the landmark at which the error is zero.
 Point2 landmarkFromPointObservationSE2(const SE2& x, const Vec2& z) noexcept;
 
-// NonFiniteInput for a NaN or Inf coordinate of z, else checkInformation(information).
+// checkCoordinates(z) (coordinate_range.h), then checkInformation(information).
 [[nodiscard]] Status validatePointObservationSE2(const Vec2& z, const Mat2& information) noexcept;
 
 // ---- Range and bearing ---------------------------------------------------------------------
@@ -41,11 +41,11 @@ Vec2 rangeBearingErrorSE2(const SE2& x, const Point2& l, const Vec2& z, Mat23* J
 // l = t + R (range cos(bearing), range sin(bearing)): the landmark at which the error is zero.
 Point2 landmarkFromRangeBearingSE2(const SE2& x, const Vec2& z) noexcept;
 
-// NonFiniteInput for a NaN or Inf range or bearing; InvalidArgument for range <= 0; else
-// checkInformation(information). A zero range is rejected, not only a negative one: it says the
-// landmark is exactly at the robot, where the bearing is undefined (it carries no information)
-// and the Jacobian of the bearing, which scales as 1/|d|, is singular; the landmark initialized
-// from it would sit exactly at that point.
+// NonFiniteInput for a NaN or Inf range or bearing; InvalidArgument for range <= 0 or beyond
+// kMaxCoordinate (coordinate_range.h); else checkInformation(information). A zero range is
+// rejected, not only a negative one: it says the landmark is exactly at the robot, where the
+// bearing is undefined (it carries no information) and the Jacobian of the bearing, which scales as
+// 1/|d|, is singular; the landmark initialized from it would sit exactly at that point.
 [[nodiscard]] Status validateRangeBearingSE2(const Vec2& z, const Mat2& information) noexcept;
 
 // ---- Factor kinds (the entries of a model's factor list; see lslam/models/) ----------------

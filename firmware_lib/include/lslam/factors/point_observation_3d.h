@@ -19,7 +19,7 @@ Vec3 pointObservationErrorSE3(const SE3& x, const Point3& l, const Vec3& z, Mat3
 // l = t + R z: the landmark at which the error is zero.
 Point3 landmarkFromPointObservationSE3(const SE3& x, const Vec3& z) noexcept;
 
-// NonFiniteInput for a NaN or Inf coordinate of z, else checkInformation(information).
+// checkCoordinates(z) (coordinate_range.h), then checkInformation(information).
 [[nodiscard]] Status validatePointObservationSE3(const Vec3& z, const Mat3& information) noexcept;
 
 // ---- Factor kinds (the entries of a model's factor list; see lslam/models/) ----------------

@@ -12,8 +12,9 @@ namespace lslam {
 Vec2 priorErrorPoint2(const Point2& x, const Point2& z, Mat2* J_e_x = nullptr) noexcept;
 Vec3 priorErrorPoint3(const Point3& x, const Point3& z, Mat3* J_e_x = nullptr) noexcept;
 
-// Input check of a prior before it is added: NonFiniteInput for a NaN or Inf coordinate of z,
-// else checkInformation(information) (NonFiniteInput, InformationNotPositiveDefinite or Ok).
+// Input check of a prior before it is added: validateValue(z) (NonFiniteInput, or InvalidArgument
+// beyond kMaxCoordinate), else checkInformation(information) (NonFiniteInput,
+// InformationNotPositiveDefinite or Ok).
 [[nodiscard]] Status validatePriorPoint2(const Point2& z, const Mat2& information) noexcept;
 [[nodiscard]] Status validatePriorPoint3(const Point3& z, const Mat3& information) noexcept;
 

@@ -7,6 +7,7 @@
 // kind alike: X::kDof, x.retract(tau), x.localCoordinates(b), with the same optional Jacobian
 // out-params (J_<result>_<input>, nullptr allowed) as SE2 and SE3.
 #include "lslam/eigen.h"
+#include "lslam/geometry/coordinate_range.h"
 #include "lslam/status.h"
 
 namespace lslam {
@@ -51,10 +52,10 @@ class Point {
   Vector p_ = Vector::Zero();
 };
 
-// Input check for a point from outside: NonFiniteInput for a NaN or Inf coordinate, Ok otherwise.
+// Input check for a point from outside: checkCoordinates (coordinate_range.h) of its coordinates.
 template <int N>
 [[nodiscard]] Status validateValue(const Point<N>& x) noexcept {
-  return x.vector().allFinite() ? Status::Ok : Status::NonFiniteInput;
+  return checkCoordinates(x.vector());
 }
 
 using Point2 = Point<2>;

@@ -9,6 +9,7 @@
 // they use.
 #include "lslam/eigen.h"
 #include "lslam/geometry/angle.h"
+#include "lslam/geometry/coordinate_range.h"
 #include "lslam/status.h"
 
 namespace lslam {
@@ -56,9 +57,11 @@ class SE2 {
 };
 
 // Input check for a pose from outside (an initial value or a measurement): NonFiniteInput for a
-// NaN or Inf coordinate, Ok otherwise.
+// NaN or Inf coordinate, InvalidArgument for x or y beyond kMaxCoordinate (coordinate_range.h; the
+// angle only has to be finite: it is wrapped), Ok otherwise.
 [[nodiscard]] inline Status validateValue(const SE2& x) noexcept {
-  return x.vector().allFinite() ? Status::Ok : Status::NonFiniteInput;
+  if (!x.vector().allFinite()) return Status::NonFiniteInput;
+  return checkCoordinates(x.translation());
 }
 
 }  // namespace lslam

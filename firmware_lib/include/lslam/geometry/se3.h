@@ -16,8 +16,8 @@ namespace lslam {
 
 class SE3;
 // Input check for a pose from outside (an initial value or a measurement): NonFiniteInput for a
-// NaN or Inf coefficient, InvalidArgument for a quaternion that is not unit (validateQuaternion),
-// Ok otherwise.
+// NaN or Inf coefficient, InvalidArgument for a translation coordinate beyond kMaxCoordinate
+// (coordinate_range.h) or a quaternion that is not unit (validateQuaternion), Ok otherwise.
 [[nodiscard]] Status validateValue(const SE3& x) noexcept;
 
 using Vec6 = Eigen::Matrix<double, 6, 1>;
