@@ -137,6 +137,13 @@ StepKind classify(const ModelDataset& d, const ModelStep& step, std::int64_t pre
     }
   }
   reason += std::string(") rejected: ") + toString(status) + note;
+  // Valid on their own, these factors met a system that rounding had made singular: the cause is
+  // usually in an earlier step, which the solver accepted.
+  if (status == Status::NotPositiveDefinite) {
+    reason +=
+        " (the graph up to this step is numerically singular: an earlier measurement may constrain "
+        "a variable far more weakly or strongly than its neighbours, or be grossly inconsistent)";
+  }
   const std::size_t line = step.factors.empty() ? 0 : d.factors[step.factors.front()].line;
   throw DatasetError(d.name, line, reason);
 }

@@ -340,6 +340,27 @@ TEST_CASE("a step that overflows the factorization is reported at its factor's l
     CHECK(e.line() == 4);
     CHECK(e.reason().find("step 1 (pose 1, factor at line 4) rejected: ") == 0);
     CHECK(e.reason().find("positive definite") != std::string::npos);
+    CHECK(e.reason().find("numerically singular") != std::string::npos);
+  }
+  CHECK(threw);
+}
+
+TEST_CASE("a step refused for an earlier step's information says where to look") {
+  // Line 3's information (1e-300) passes as positive definite and its step is accepted, but pose 1
+  // is then so loosely held that the next step's Schur complement rounds to nothing: that step
+  // (line 4, valid) is refused, and the message points back.
+  std::istringstream in(
+      "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0 0 1e-300 0 0 1e-300 0 1e-300\n"
+      "VERTEX_SE2 2 2 0 0\nEDGE_SE2 1 2 1 0 0 1 0 0 1 0 1\n");
+  const ModelDataset d = sim::parseModelDataset(in, "weak.g2o");
+  bool threw = false;
+  try {
+    (void)sim::runModelIncremental(d, sim::IncrementalOptions{});
+  } catch (const sim::DatasetError& e) {
+    threw = true;
+    CHECK(e.line() == 5);
+    CHECK(e.reason().find("step 2 (pose 2, factor at line 5) rejected: ") == 0);
+    CHECK(e.reason().find("earlier measurement") != std::string::npos);
   }
   CHECK(threw);
 }
