@@ -563,6 +563,13 @@ class Reader {
       // iSAM's loader adds the factor j -> i with the inverse measurement.
       const Eigen::Quaterniond rot(q[3], q[0], q[1], q[2]);
       const Eigen::Vector3d t = -(rot.conjugate() * Eigen::Vector3d(x, y, z));
+      // Rotated, a translation keeps its length but not its coordinates' bound.
+      if (!(t.cwiseAbs().maxCoeff() <= kMaxCoordinate)) {
+        p.fail("EDGE3: the inverse measurement's translation (" + formatDouble(t.x()) + ", " +
+               formatDouble(t.y()) + ", " + formatDouble(t.z()) +
+               ") is beyond the coordinate range (|value| <= " + formatDouble(kMaxCoordinate) +
+               " m)");
+      }
       meas = {t.x(), t.y(), t.z(), -q[0], -q[1], -q[2], q[3]};
       std::swap(first, second);
     }

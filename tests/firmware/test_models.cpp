@@ -162,6 +162,13 @@ TEST_CASE("validateValue and the factors' checks bound every position coordinate
   CHECK(lslam::validateValue(lslam::SE3(unit, lslam::Vec3(2.0 * kMax, inf, 0.0))) ==
         Status::NonFiniteInput);
   CHECK(lslam::validateValue(lslam::Point2(2.0 * kMax, -inf)) == Status::NonFiniteInput);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  CHECK(lslam::validateValue(lslam::SE2(2.0 * kMax, 0.0, nan)) == Status::NonFiniteInput);
+  CHECK(lslam::validateRangeBearingSE2(lslam::Vec2(2.0 * kMax, nan), i2) == Status::NonFiniteInput);
+  CHECK(lslam::validatePointObservationSE2(lslam::Vec2(nan, 2.0 * kMax), i2) ==
+        Status::NonFiniteInput);
+  CHECK(lslam::validatePointObservationSE3(lslam::Vec3(2.0 * kMax, 0.0, inf), i3) ==
+        Status::NonFiniteInput);
 }
 
 }  // namespace

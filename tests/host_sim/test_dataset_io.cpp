@@ -937,9 +937,10 @@ TEST_CASE("readers: random single-token corruptions parse or throw DatasetError 
         for (const Edge2D& e : d.edges) {
           const Eigen::LLT<Eigen::Matrix3d> llt(e.information);
           const bool ok = e.from != e.to && e.from >= 0 && e.to >= 0 && e.line >= 1 &&
-                          e.line <= lines && std::isfinite(e.measurement.x) &&
-                          std::isfinite(e.measurement.y) && std::isfinite(e.measurement.theta) &&
-                          e.information.allFinite() && llt.info() == Eigen::Success;
+                          e.line <= lines && std::abs(e.measurement.x) <= lslam::kMaxCoordinate &&
+                          std::abs(e.measurement.y) <= lslam::kMaxCoordinate &&
+                          std::isfinite(e.measurement.theta) && e.information.allFinite() &&
+                          llt.info() == Eigen::Success;
           if (!ok)
             failure = "accepted a bad edge at line " + std::to_string(e.line) + " of\n" + text;
         }
@@ -959,6 +960,43 @@ TEST_CASE("readers: random single-token corruptions parse or throw DatasetError 
     CHECK(failure.empty());
     CHECK(parsed > 100);  // the corruptions exercise both outcomes
     CHECK(rejected > 1000);
+  }
+}
+
+TEST_CASE("a position or translation beyond the coordinate range is an error at its line") {
+  // lslam::kMaxCoordinate (1e9 m) is read; the next double above it is not, in any position field
+  // of any 2D record (an angle is only wrapped: not bounded).
+  const std::string at = "1e9";
+  const std::string past = "1000000000.0000001";
+  REQUIRE(std::stod(past) == std::nextafter(lslam::kMaxCoordinate, 2e9));
+  struct Case {
+    Lines lines;  // the last line holds `@`, replaced by `at` (read) and by `past` (rejected)
+    std::string name;
+    std::string field;
+  };
+  const std::vector<Case> cases = {
+      {{"VERTEX_SE2 0 @ 0 0"}, "t.g2o", "VERTEX_SE2 field x"},
+      {{"VERTEX_SE2 0 0 0 0", "VERTEX_SE2 1 0 -@ 1e300"}, "t.g2o", "VERTEX_SE2 field y"},
+      {{"VERTEX_SE2 0 0 0 0", "VERTEX_SE2 1 0 0 0", "EDGE_SE2 0 1 -@ 0 0 1 0 0 1 0 1"},
+       "t.g2o",
+       "EDGE_SE2 field dx"},
+      {{"VERTEX2 0 0 @ 0"}, "t.graph", "VERTEX2 field y"},
+      {{"VERTEX2 0 0 0 0", "VERTEX2 1 0 0 0", "EDGE2 0 1 0 @ 0 1 0 1 1 0 0"},
+       "t.graph",
+       "EDGE2 field dy"},
+      {{"ODOMETRY 0 1 0 -@ 0 1 0 0 1 0 1"}, "t.txt", "ODOMETRY field dy"},
+  };
+  for (const Case& c : cases) {
+    const auto with = [&](const std::string& value) {
+      Lines lines = c.lines;
+      std::string& last = lines.back();
+      last.replace(last.find('@'), 1, value);
+      return join(lines);
+    };
+    CAPTURE(c.field);
+    CHECK_FALSE(parseError(with(at), c.name).has_value());
+    expectError(with(past), c.name, c.lines.size(),
+                {c.field, past + "'", "beyond the coordinate range"});
   }
 }
 

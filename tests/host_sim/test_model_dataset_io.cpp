@@ -467,6 +467,11 @@ TEST_CASE("iSAM 3D: EDGE3 i j with i > j is stored j -> i with the inverse measu
   // The information is not transformed (iSAM's loader keeps the sqrt-information).
   CHECK(e.information ==
         Eigen::MatrixXd((Eigen::VectorXd(6) << 1, 4, 9, 36, 25, 16).finished().asDiagonal()));
+  // Inverted, a translation keeps its length, not its coordinates' bound: (1e9, 1e9, 0) under a
+  // yaw of pi/4 comes back as about (-1.41e9, 0, 0), an error at its line; stored as read, fine.
+  CHECK_NOTHROW(parse(Lines{"EDGE3 0 1 1e9 1e9 0 0 0 0.7853981633974483"}, "t.txt"));
+  expectError({"EDGE3 0 1 1 0 0 0 0 0", "EDGE3 2 1 1e9 1e9 0 0 0 0.7853981633974483"}, "t.txt", 2,
+              {"EDGE3", "inverse measurement's translation", "beyond the coordinate range"});
 }
 
 // ---- errors ----
@@ -778,7 +783,6 @@ TEST_CASE("random single-token corruptions parse or throw DatasetError within th
 
 namespace {
 
-// Doubles that need all 17 digits, tiny and huge magnitudes.
 // Values that print with many digits or none, tiny, signed zero, subnormal; the largest is within
 // the coordinate range (lslam::kMaxCoordinate) at every k used here (k / 7 <= 1).
 double awkward(int k) {
@@ -793,7 +797,8 @@ ModelDataset landmarks2d() {
     ModelVertex v;
     v.key = pose(k);
     v.kind = VariableKind::SE2;
-    v.value = vec({awkward(k), awkward(k + 1), awkward(k + 2) * 1e-20});
+    // (An angle is not bounded: pose 0's is a large exponent form.)
+    v.value = vec({awkward(k), awkward(k + 1), k == 0 ? 6.02214076e23 : awkward(k + 2) * 1e-20});
     d.vertices.push_back(v);
   }
   ModelVertex l;

@@ -305,8 +305,9 @@ bool CompactPoseGraph<Model>::addOrFold(const ModelFactorInput<Model>& factor, I
     record(u, r);
     (existing != kNoIndex ? r.folded : r.factors_added) += 1;
   } else {
-    // The inputs were checked: only room (or a factorization that failed and changed nothing) is
-    // left to refuse it.
+    // The inputs were checked: only room, a factorization that failed and changed nothing, or a
+    // composed measurement or value beyond kMaxCoordinate (a map about 1e9 m across) is left to
+    // refuse it.
     r.dropped += 1;
   }
   return s == Status::Ok;

@@ -25,7 +25,8 @@
 // Errors: every malformed line throws DatasetError(file, line, reason) with a 1-based line number:
 // wrong number of fields ("expected 12 fields, got 7"), trailing fields, a field that is not a
 // number (strict: the whole token must parse, "1.5abc" and "0x10" are errors), NaN/Inf, values
-// out of the range of a double ("1e400"), ids that are not integers, negative or > 2^31-1 ("id out
+// out of the range of a double ("1e400"), a position or translation (x, y, dx, dy) beyond the
+// solver's coordinate range (|value| <= lslam::kMaxCoordinate, 1e9 m), ids that are not integers, negative or > 2^31-1 ("id out
 // of range"), an edge from a pose to itself, a vertex id defined twice, records of another format
 // than the file's, unsupported records (2D landmarks, 3D records, unknown tags), e.g.
 //   "unsupported record 'LANDMARK' (2D landmarks are not supported yet)",
@@ -62,7 +63,8 @@ Dataset2D parseDataset2D(std::istream& in, const std::string& name, DatasetForma
 // (given order, information as its upper triangle I11 I12 I13 I22 I23 I33). Numbers are written
 // in the shortest form that reads back to the identical double (std::to_chars), so write -> read
 // is exact; the file loads in g2o and GTSAM's readG2o. Throws std::invalid_argument (before
-// writing anything) for a non-finite value, an id outside 0..2^31-1, an edge with from == to or
+// writing anything) for a non-finite value, a position or translation beyond the coordinate range
+// (as the readers), an id outside 0..2^31-1, an edge with from == to or
 // an information whose upper triangle (the symmetric matrix written) is not positive definite,
 // which the readers would reject; std::runtime_error if the stream fails.
 void writeG2o(std::ostream& out, const std::vector<Vertex2D>& vertices,

@@ -4,8 +4,10 @@
 //
 // Lines, tokens, comments, number and id syntax, format detection and error style are those of
 // dataset_io.h: one record per line, tokens separated by blanks or tabs, blank lines and lines
-// whose first non-blank character is '#' skipped; numbers strictly parsed and finite, ids integers
-// in 0..2^31-1; every malformed line throws DatasetError(file, line, reason), 1-based line.
+// whose first non-blank character is '#' skipped; numbers strictly parsed and finite, positions,
+// translations and ranges within lslam::kMaxCoordinate (1e9 m; for EDGE3 i > j also the inverted
+// translation stored), ids integers in 0..2^31-1; every malformed line throws
+// DatasetError(file, line, reason), 1-based line.
 //
 // RECORDS ("sqrt-info": upper-triangular square-root information R, row-major; information R^T R)
 //
@@ -157,7 +159,8 @@ ModelDataset parseModelDataset(std::istream& in, const std::string& name);
 // range is not > 0 or whose bearing is outside (-pi, pi] (not wrapped: written as given); a
 // BetweenSE3 of a dataset with convention Isam (its information is in Euler coordinates, see
 // EDGE3 above); records of the other dimension than ModelDataset::dimension; a value or
-// measurement of the wrong size, non-finite, or a quaternion off unit norm by more than
+// measurement of the wrong size, non-finite, with a position, translation or range beyond
+// lslam::kMaxCoordinate, or a quaternion off unit norm by more than
 // kQuaternionNormTolerance; an id outside 0..2^31-1; a pose key with a point kind or the
 // reverse; a factor whose two ids are equal; a duplicate vertex id (poses and landmarks share one
 // g2o id space), or an id used both as a pose and as a landmark; with vertices, a factor or FIX

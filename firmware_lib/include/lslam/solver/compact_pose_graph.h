@@ -132,8 +132,8 @@ class CompactPoseGraph {
   // its landmark observations (a model with landmarks; a landmark enters at its first
   // observation, from the current place). NonFiniteInput / InformationNotPositiveDefinite for a
   // bad measurement, UnknownVariable for a place whose node is not in the graph, InvalidArgument
-  // for a covariance that is not finite and symmetric, a negative count or landmark id, or
-  // observations in a pose-only model (nothing changed).
+  // for a translation beyond kMaxCoordinate, a covariance that is not finite and symmetric, a
+  // negative count or landmark id, or observations in a pose-only model (nothing changed).
   [[nodiscard]] Status addStep(const Pose& odometry, const Matrix& information,
                                const Closure* closures, Index num_closures,
                                const Observation* observations, Index num_observations,
