@@ -302,10 +302,9 @@ void checkFinite(double v, const std::string& what) {
 // A position or translation coordinate: finite and within the readers' coordinate range.
 void checkCoordinate(double v, const std::string& what) {
   checkFinite(v, what);
-  if (!(std::abs(v) <= kMaxCoordinate)) {
-    throw std::invalid_argument(
-        "writeG2o: " + what + ": coordinate " + formatDouble(v) +
-        " beyond the coordinate range (|value| <= " + formatDouble(kMaxCoordinate) + " m)");
+  if (!withinCoordinateRange(v)) {
+    throw std::invalid_argument("writeG2o: " + what + ": " +
+                                parsing::beyondCoordinateRange("coordinate " + formatDouble(v)));
   }
 }
 

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "host_sim/dataset_io.h"
+#include "lslam/geometry/coordinate_range.h"
 #include "model_records.h"
 #include "record_parsing.h"
 
@@ -564,11 +565,11 @@ class Reader {
       const Eigen::Quaterniond rot(q[3], q[0], q[1], q[2]);
       const Eigen::Vector3d t = -(rot.conjugate() * Eigen::Vector3d(x, y, z));
       // Rotated, a translation keeps its length but not its coordinates' bound.
-      if (!(t.cwiseAbs().maxCoeff() <= kMaxCoordinate)) {
-        p.fail("EDGE3: the inverse measurement's translation (" + formatDouble(t.x()) + ", " +
-               formatDouble(t.y()) + ", " + formatDouble(t.z()) +
-               ") is beyond the coordinate range (|value| <= " + formatDouble(kMaxCoordinate) +
-               " m)");
+      if (checkCoordinates(t) != Status::Ok) {
+        p.fail("EDGE3: the inverse measurement's translation " +
+               parsing::beyondCoordinateRange("(" + formatDouble(t.x()) + ", " +
+                                              formatDouble(t.y()) + ", " + formatDouble(t.z()) +
+                                              ")"));
       }
       meas = {t.x(), t.y(), t.z(), -q[0], -q[1], -q[2], q[3]};
       std::swap(first, second);

@@ -46,11 +46,10 @@ void checkValues(const Eigen::VectorXd& v, VariableKind kind, const std::string&
     reject(what, std::to_string(v.size()) + " values, expected " + std::to_string(size));
   }
   if (!v.allFinite()) reject(what, "non-finite value");
-  const double position = v.head(dimensionOf(kind)).cwiseAbs().maxCoeff();
-  if (!(position <= kMaxCoordinate)) {
-    reject(what, "coordinate " + formatDouble(position) +
-                     " beyond the coordinate range (|value| <= " + formatDouble(kMaxCoordinate) +
-                     " m)");
+  const auto position = v.head(dimensionOf(kind));
+  if (checkCoordinates(position) != Status::Ok) {
+    reject(what, parsing::beyondCoordinateRange("coordinate " +
+                                                formatDouble(position.cwiseAbs().maxCoeff())));
   }
   const bool has_quaternion = kind == VariableKind::SE3;
   if (has_quaternion) {

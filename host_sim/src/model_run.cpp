@@ -137,15 +137,15 @@ StepKind classify(const ModelDataset& d, const ModelStep& step, std::int64_t pre
     }
   }
   reason += std::string(") rejected: ") + toString(status) + note;
-  // Valid on their own, these factors met a system that rounding had made singular: the cause is
-  // usually in an earlier step, which the solver accepted.
+  // The readers bound every field: a value past the bound was composed (an initial value from the
+  // estimate and a measurement, a landmark placed from its observation).
   if (status == Status::InvalidArgument) {
-    // The readers bound every field: a value past it was composed (an initial value from the
-    // estimate and a measurement, a landmark placed from its observation).
     reason +=
         " (an initial value composed from the estimate and a measurement lies beyond the "
         "solver's coordinate range, |value| <= 1e9 m)";
   }
+  // Valid on their own, these factors met a system that rounding had made singular: the cause is
+  // usually in an earlier step, which the solver accepted.
   if (status == Status::NotPositiveDefinite) {
     reason +=
         " (the graph up to this step is numerically singular: an earlier measurement may constrain "

@@ -157,6 +157,13 @@ inline std::string formatDouble(double v) {
   return out;
 }
 
+// "<value> is beyond the coordinate range (|value| <= 1e+09 m)": why a position, translation or
+// range past lslam::kMaxCoordinate (the solver's bound) is refused, for readers and writers alike.
+inline std::string beyondCoordinateRange(const std::string& value) {
+  return value + " is beyond the coordinate range (|value| <= " + formatDouble(kMaxCoordinate) +
+         " m)";
+}
+
 // Parses the fields of one record (tokens[0] is its tag); every failure names the file and line.
 class FieldParser {
  public:
@@ -231,10 +238,8 @@ class FieldParser {
   // bound (lslam::kMaxCoordinate), so that the reader rejects at its line what the solver would.
   double coordinate(std::size_t i, const char* field) const {
     const double v = number(i, field);
-    if (!(std::abs(v) <= kMaxCoordinate)) {
-      fail(where(field) + ": " + show(tokens_[i]) +
-           " is beyond the coordinate range (|value| <= " + formatDouble(kMaxCoordinate) + " m)");
-    }
+    if (!withinCoordinateRange(v))
+      fail(where(field) + ": " + beyondCoordinateRange(show(tokens_[i])));
     return v;
   }
 

@@ -84,8 +84,8 @@ Point2 landmarkFromRangeBearingSE2(const SE2& x, const Vec2& z) noexcept {
 
 Status validateRangeBearingSE2(const Vec2& z, const Mat2& information) noexcept {
   if (!z.allFinite()) return Status::NonFiniteInput;
-  if (!(z(0) > 0.0)) return Status::InvalidArgument;  // see the header: zero is rejected too
-  if (z(0) > kMaxCoordinate) return Status::InvalidArgument;
+  // See the header: zero is rejected too.
+  if (!(z(0) > 0.0) || !withinCoordinateRange(z(0))) return Status::InvalidArgument;
   return checkInformation(information);
 }
 

@@ -187,9 +187,10 @@ Vec6 SE3::localCoordinates(const SE3& b, Mat6* J_t_a, Mat6* J_t_b) const noexcep
 
 Status validateValue(const SE3& x) noexcept {
   // Non-finite first, wherever it is: a NaN quaternion with a far translation is NonFiniteInput.
-  if (!x.translation().allFinite()) return Status::NonFiniteInput;
+  const Status translation = checkCoordinates(x.translation());
+  if (translation == Status::NonFiniteInput) return translation;
   const Status rotation = validateQuaternion(x.rotation().quaternion());
-  return rotation != Status::Ok ? rotation : checkCoordinates(x.translation());
+  return rotation != Status::Ok ? rotation : translation;
 }
 
 }  // namespace lslam

@@ -2,6 +2,8 @@
 // The range of a position coordinate from outside (a translation, a point, a range; metres): every
 // input is checked against it before it can reach the graph, so that a finite but absurd value is
 // bad input (a Status) and not an estimate that overflows a later step.
+#include <cmath>
+
 #include "lslam/eigen.h"
 #include "lslam/status.h"
 
@@ -13,6 +15,11 @@ namespace lslam {
 // that weights it. Unbounded, a translation of 1e200 m was accepted and its squares in the
 // relinearized system overflowed: NaN estimates, and every later update refused.
 inline constexpr double kMaxCoordinate = 1e9;
+
+// One coordinate: |value| <= kMaxCoordinate (false for NaN).
+[[nodiscard]] inline bool withinCoordinateRange(double value) noexcept {
+  return std::abs(value) <= kMaxCoordinate;
+}
 
 // NonFiniteInput for a NaN or Inf coordinate, InvalidArgument for one beyond kMaxCoordinate, Ok
 // otherwise.

@@ -7,6 +7,8 @@
 // perturbations, X (+) tau = X * Exp(tau), and every output Jacobian is an optional pointer
 // named J_<result>_<input> that may be nullptr, so callers on the hot path only pay for what
 // they use.
+#include <cmath>
+
 #include "lslam/eigen.h"
 #include "lslam/geometry/angle.h"
 #include "lslam/geometry/coordinate_range.h"
@@ -60,7 +62,7 @@ class SE2 {
 // NaN or Inf coordinate, InvalidArgument for x or y beyond kMaxCoordinate (coordinate_range.h; the
 // angle only has to be finite: it is wrapped), Ok otherwise.
 [[nodiscard]] inline Status validateValue(const SE2& x) noexcept {
-  if (!x.vector().allFinite()) return Status::NonFiniteInput;
+  if (!std::isfinite(x.theta())) return Status::NonFiniteInput;
   return checkCoordinates(x.translation());
 }
 
