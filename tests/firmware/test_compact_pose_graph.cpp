@@ -449,6 +449,8 @@ TEST_CASE("a rejected step past capacity changes nothing") {
       bad_covariance[0].seen.covariance(0, 1) = 1.0;
       std::vector<Closure> indefinite = closures;  // symmetric, an eigenvalue below zero
       indefinite[0].seen.covariance = Vec3(1e-4, -1e-4, 1e-6).asDiagonal();
+      std::vector<Closure> weak_closure = closures;
+      weak_closure[0].information(0, 0) = 1e-19;
       std::vector<Closure> moved_node = closures;  // zero covariance (a node) but an offset
       moved_node[0].seen = Place<SE2>{0, SE2(0.5, 0.0, 0.0), Mat3::Zero()};
       struct Bad {
@@ -467,6 +469,9 @@ TEST_CASE("a rejected step past capacity changes nothing") {
           {z, info, &closures, -1, Status::InvalidArgument},
           {z, info, &indefinite, 1, Status::InvalidArgument},
           {z, info, &moved_node, 1, Status::InvalidArgument},
+          // Positive definite, but a standard deviation beyond kMaxCoordinate (sqrt(1e19) m).
+          {z, Mat3::Identity() * 1e-19, &closures, 1, Status::InvalidArgument},
+          {z, info, &weak_closure, 1, Status::InvalidArgument},
       };
       const double chi2 = solver->chi2();
       const Index factors = solver->factors();
@@ -536,4 +541,96 @@ TEST_CASE("reversedBetweenInformation: the same chi2 read from the other pose") 
     const Mat6 twice = reversedBetweenInformation(z.inverse(), reversed);
     CHECK((twice - information).norm() <= 1e-8 * information.norm());
   }
+}
+
+TEST_CASE(
+    "past the capacity an extreme information is refused, or leaves every place and estimate "
+    "finite") {
+  // Six nodes, then places on them: at step 8 one measurement's information is pushed to an
+  // extreme (the odometry's heading, a mapped landmark's observation, a loop closure's heading or
+  // x). Below about 1e-18 (a standard deviation beyond kMaxCoordinate) the step is refused and
+  // changes nothing. Above, up to the largest finite values: a Kalman correction or fusion that
+  // double precision cannot resolve (J^T Omega J overflowing, or swamping the place's own
+  // information) leaves the place as it was, which a twin never given that observation shows.
+  using Landmarks = CompactPoseGraph<Slam2D>;
+  using Solver = StaticSmoother<Slam2D, 6, 4, 40, 40 * 12, 2000, 2000 * 9>;
+  const double extremes[] = {1e12,  1e100, 1e200, 4e302,  1e307, 1.5e308,
+                             1e-12, 1e-17, 1e-19, 1e-300, 1e-310};
+  const Vec2 landmark(3.0, 2.0);
+  const auto seen = [&](const SE2& robot, double information_y) {
+    Mat2 information = Mat2::Identity() * 100.0;
+    information(1, 1) = information_y;
+    return Landmarks::Observation{100, robot.inverse().transformFrom(landmark), information};
+  };
+  const auto samePlace = [](const Place<SE2>& a, const Place<SE2>& b) {
+    return a.node == b.node && a.offset.vector() == b.offset.vector() &&
+           a.covariance == b.covariance;
+  };
+  Index skipped_corrections = 0;
+  for (int site = 0; site < 4; ++site) {
+    for (const double extreme : extremes) {
+      CAPTURE(site);
+      CAPTURE(extreme);
+      const bool refused = extreme < 1e-18;
+      auto solver = std::make_unique<Solver>();
+      auto twin_solver = std::make_unique<Solver>();  // never sees the pushed observation
+      Landmarks graph(*solver);
+      Landmarks twin(*twin_solver);
+      const Landmarks::Observation first = seen(SE2(), 100.0);
+      for (Landmarks* g : {&graph, &twin}) {
+        REQUIRE(g->start(SE2()) == Status::Ok);
+        REQUIRE(g->addObservations(&first, 1) == Status::Ok);
+      }
+      const SE2 step(1.0, 0.01, 0.01);
+      const Mat3 normal = Vec3(100.0, 100.0, 400.0).asDiagonal();
+      SE2 truth;
+      std::vector<Place<SE2>> places{graph.current()};
+      for (int k = 1; k <= 12; ++k) {
+        truth = truth.compose(step);
+        const bool pushed = k == 8;
+        Mat3 odometry_information = normal;
+        if (pushed && site == 0) odometry_information(2, 2) = extreme;
+        const Landmarks::Observation observation =
+            seen(truth, pushed && site == 1 ? extreme : 100.0);
+        Closure closure{places[std::max(k - 3, 0)], SE2(), normal};
+        closure.measurement = graph.estimate(closure.seen).inverse().compose(truth);
+        if (pushed && site == 2) closure.information(2, 2) = extreme;
+        if (pushed && site == 3) closure.information(0, 0) = extreme;
+        const Index closures = k >= 7 ? 1 : 0;
+        if (pushed && refused) {
+          const Place<SE2> before = graph.current();
+          const double chi2 = solver->chi2();
+          CompactStepResult r;
+          CHECK(graph.addStep(step, odometry_information, &closure, closures, &observation, 1,
+                              &r) == Status::InvalidArgument);
+          CHECK(samePlace(graph.current(), before));
+          CHECK(solver->chi2() == chi2);
+          break;  // the rest of this run is the normal one
+        }
+        CompactStepResult r;
+        REQUIRE(graph.addStep(step, odometry_information, &closure, closures, &observation, 1,
+                              &r) == Status::Ok);
+        if (k <= 8) {  // the twin, in step up to the pushed observation, which it never sees
+          Closure twin_closure = closure;
+          twin_closure.information = normal;
+          REQUIRE(twin.addStep(step, normal, &twin_closure, closures, &observation,
+                               pushed && site == 1 ? 0 : 1) == Status::Ok);
+        }
+        if (pushed && site == 1 && r.localized == 0) {
+          CHECK(samePlace(graph.current(), twin.current()));
+          ++skipped_corrections;
+        }
+        places.push_back(graph.current());
+        const SE2 now = graph.estimate(graph.current());
+        REQUIRE(graph.current().covariance.allFinite());
+        REQUIRE(now.translation().allFinite());
+        REQUIRE(std::isfinite(now.theta()));
+      }
+      for (Index node = 0; node < graph.nodes(); ++node) {
+        REQUIRE(solver->estimateAt<SE2>(solver->indexOf<SE2>(node)).translation().allFinite());
+      }
+      REQUIRE(solver->estimateAt<Point2>(solver->indexOf<Point2>(100)).vector().allFinite());
+    }
+  }
+  CHECK(skipped_corrections > 0);
 }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "lslam/geometry/coordinate_range.h"
 #include "lslam/models/pose_slam_2d.h"
 #include "lslam/models/pose_slam_3d.h"
 #include "lslam/models/slam_2d.h"
@@ -30,6 +31,15 @@ bool validCovariance(const Matrix<Pose>& m) {
   if (!m.allFinite() || !m.isApprox(m.transpose(), 1e-9)) return false;
   const Eigen::LDLT<Matrix<Pose>> ldlt(m);
   return ldlt.info() == Eigen::Success && ldlt.isPositive();
+}
+
+// A measurement's covariance whose every standard deviation lies within kMaxCoordinate (metres or
+// radians; an information above about 1e-18). The places hold covariances, composed to first
+// order: a weaker measurement would carry them towards overflow within a few steps.
+template <int N>
+bool withinVarianceRange(const Eigen::Matrix<double, N, N>& covariance) {
+  constexpr double kMaxVariance = kMaxCoordinate * kMaxCoordinate;
+  return covariance.allFinite() && (covariance.diagonal().array() <= kMaxVariance).all();
 }
 
 // A tangent covariance as a between measurement's information in its error coordinates (back
@@ -61,10 +71,17 @@ Status CompactPoseGraph<Model>::check(const Pose& odometry, const Matrix& inform
       current_.node == kNoIndex) {
     return Status::InvalidArgument;  // (a smoother that start() did not begin included)
   }
-  Status s = Between::validate(odometry, information);
+  const auto checkBetween = [](const Pose& z, const Matrix& z_information) {
+    const Status s = Between::validate(z, z_information);
+    if (s != Status::Ok) return s;
+    return withinVarianceRange(betweenTangentCovariance<Pose>(z_information))
+               ? Status::Ok
+               : Status::InvalidArgument;
+  };
+  Status s = checkBetween(odometry, information);
   for (Index i = 0; s == Status::Ok && i < num_closures; ++i) {
     const Closure& c = closures[i];
-    s = Between::validate(c.measurement, c.information);
+    s = checkBetween(c.measurement, c.information);
     if (s == Status::Ok) s = validateValue(c.seen.offset);
     // A place at a node (zero covariance) is the node itself.
     if (s == Status::Ok &&
@@ -81,6 +98,10 @@ Status CompactPoseGraph<Model>::check(const Pose& odometry, const Matrix& inform
     for (Index i = 0; s == Status::Ok && i < num_observations; ++i) {
       const Observation& o = observations[i];
       s = o.landmark < 0 ? Status::InvalidArgument : Observed::validate(o.position, o.information);
+      if (s == Status::Ok &&
+          !withinVarianceRange(positiveDefiniteInverse<Landmark>(o.information))) {
+        s = Status::InvalidArgument;
+      }
     }
   }
   return s;
@@ -203,13 +224,15 @@ void CompactPoseGraph<Model>::relocalize(Index b, const Pose& seen, const Matrix
   };
   const Matrix seen_information = positiveDefiniteInverse<Pose>(seen_covariance);
   const Matrix current_information = positiveDefiniteInverse<Pose>(current_.covariance);
-  const Matrix sum = seen_information + current_information;
   const Pose carried = inFrameOf(a, current_.offset);
   const Pose from_seen = inFrameOf(b, seen);
-  // The mean in the tangent at the closure's view (covariances are tangent ones here).
-  const auto step =
-      sum.llt().solve(current_information * from_seen.localCoordinates(carried)).eval();
-  current_ = PlaceT{node, from_seen.retract(step), positiveDefiniteInverse<Pose>(sum)};
+  // The mean in the tangent at the closure's view (covariances are tangent ones here). A fusion
+  // that double precision cannot resolve (one information swamping the other) leaves the place.
+  const PoseCorrection<Pose> c =
+      detail::weightedCorrection<Pose>(seen_information + current_information,
+                                       current_information * from_seen.localCoordinates(carried));
+  if (!c.valid) return;
+  current_ = PlaceT{node, from_seen.retract(c.step), c.covariance};
   r.relocalized = true;
 }
 
@@ -249,8 +272,7 @@ void CompactPoseGraph<Model>::observe(const Observation& o, CompactStepResult& r
             !smoother_.options().solve_after_update) {
           smoother_.solve(false);
         }
-        localizeOn(l, o);
-        r.localized += 1;
+        r.localized += localizeOn(l, o) ? 1 : 0;
       }
       return;
     }
@@ -275,18 +297,22 @@ void CompactPoseGraph<Model>::observe(const Observation& o, CompactStepResult& r
 // as exact (a Kalman update of the offset, right perturbation, in information form). Past the
 // capacity it is what keeps a place between loop closures from drifting on odometry alone; like
 // the fusion of relocalize, it counts the observation again in factors later derived from the
-// place. At a node the place is exact and stays.
+// place. At a node the place is exact and stays; so does a place the update cannot correct in
+// double precision (PoseCorrection::valid). Returns whether the place was corrected.
 template <class Model>
-void CompactPoseGraph<Model>::localizeOn(Index landmark, const Observation& o) {
+bool CompactPoseGraph<Model>::localizeOn(Index landmark, const Observation& o) {
   if constexpr (kLandmarks) {
-    if (current_.atNode()) return;
+    if (current_.atNode()) return false;
     const PoseCorrection<Pose> c = correctionByObservedPoint<typename Model::PointObservation>(
         estimate(current_), current_.covariance, smoother_.template estimateAt<Landmark>(landmark),
         o.position, o.information);
+    if (!c.valid) return false;
     current_ = PlaceT{current_.node, current_.offset.retract(c.step), c.covariance};
+    return true;
   } else {
     static_cast<void>(landmark);
     static_cast<void>(o);
+    return false;
   }
 }
 

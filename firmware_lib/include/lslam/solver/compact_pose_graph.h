@@ -48,12 +48,36 @@ struct Place {
 // A pose's correction by an observation z (of kind Observed, with its information) of a point
 // whose estimate is taken as exact: a Kalman update in information form, right perturbation. The
 // step is for pose.retract, or for the offset of a place at that pose (the same perturbation);
-// the covariance replaces the pose's, which must be positive definite.
+// the covariance replaces the pose's, which must be positive definite. Not `valid` when the
+// update is numerically singular (an information so strong that J^T Omega J overflows, or swamps
+// the pose's own past double precision, some 15 orders): the pose is then to stay as it was (the
+// step and covariance are zero, not a correction).
 template <class Pose>
 struct PoseCorrection {
-  Eigen::Matrix<double, Pose::kDof, 1> step;
-  Eigen::Matrix<double, Pose::kDof, Pose::kDof> covariance;
+  Eigen::Matrix<double, Pose::kDof, 1> step = Eigen::Matrix<double, Pose::kDof, 1>::Zero();
+  Eigen::Matrix<double, Pose::kDof, Pose::kDof> covariance =
+      Eigen::Matrix<double, Pose::kDof, Pose::kDof>::Zero();
+  bool valid = false;
 };
+
+namespace detail {
+// The correction of an information-weighted mean in one tangent: step = total^-1 g and its
+// covariance total^-1, valid when total is finite and positive definite in double precision and
+// both results are finite (LLT passes a NaN pivot, so finiteness is tested apart).
+template <class Pose>
+PoseCorrection<Pose> weightedCorrection(const Eigen::Matrix<double, Pose::kDof, Pose::kDof>& total,
+                                        const Eigen::Matrix<double, Pose::kDof, 1>& g) {
+  using Matrix = Eigen::Matrix<double, Pose::kDof, Pose::kDof>;
+  PoseCorrection<Pose> c;
+  const Eigen::LLT<Matrix> llt(total);
+  if (!total.allFinite() || llt.info() != Eigen::Success) return c;
+  c.step = llt.solve(g);
+  c.covariance = positiveDefiniteInverse<Pose>(total);
+  c.valid = c.step.allFinite() && c.covariance.allFinite() &&
+            Eigen::LLT<Matrix>(c.covariance).info() == Eigen::Success;
+  return c;
+}
+}  // namespace detail
 
 template <class Observed, class Pose, class Point>
 PoseCorrection<Pose> correctionByObservedPoint(
@@ -65,9 +89,7 @@ PoseCorrection<Pose> correctionByObservedPoint(
   const Eigen::Matrix<double, Observed::kErrorDim, 1> e =
       Observed::error(pose, point, z, &j, nullptr);
   const Matrix total = positiveDefiniteInverse<Pose>(covariance) + j.transpose() * information * j;
-  const Eigen::LLT<Matrix> llt(total);
-  return {llt.solve(-(j.transpose() * (information * e))).eval(),
-          positiveDefiniteInverse<Pose>(total)};
+  return detail::weightedCorrection<Pose>(total, -(j.transpose() * (information * e)));
 }
 
 // A loop closure of a step: the pose seen (a place the caller kept from an earlier step) and
@@ -132,7 +154,9 @@ class CompactPoseGraph {
   // its landmark observations (a model with landmarks; a landmark enters at its first
   // observation, from the current place). NonFiniteInput / InformationNotPositiveDefinite for a
   // bad measurement, UnknownVariable for a place whose node is not in the graph, InvalidArgument
-  // for a translation beyond kMaxCoordinate, a covariance that is not finite and symmetric, a
+  // for a translation beyond kMaxCoordinate, a measurement whose covariance has a standard
+  // deviation beyond it (an information below about 1e-18, which would carry the places'
+  // covariances towards overflow), a place covariance that is not finite and symmetric, a
   // negative count or landmark id, or observations in a pose-only model (nothing changed).
   [[nodiscard]] Status addStep(const Pose& odometry, const Matrix& information,
                                const Closure* closures, Index num_closures,
@@ -173,7 +197,7 @@ class CompactPoseGraph {
   Index nodeIndex(Index node) const;
   void closeLoop(const Closure& closure, CompactStepResult& r);
   void observe(const Observation& observation, CompactStepResult& r);
-  void localizeOn(Index landmark, const Observation& observation);
+  bool localizeOn(Index landmark, const Observation& observation);
   // Adds `factor` on a pair not yet joined, or folds it into `existing` (kNoIndex: none); counts
   // the outcome and returns whether the smoother took it.
   template <class F>
