@@ -205,6 +205,13 @@ std::string toJson(const RunArgs& args, const RunSummary& r) {
   return js.str();
 }
 
+// A chi2 for the summary: six decimals, or an exponent form for one too large for them to read.
+std::string chi2Text(double chi2) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, std::fabs(chi2) < 1e12 ? "%.6f" : "%.6e", chi2);
+  return buf;
+}
+
 void printSummary(const RunArgs& args, const RunSummary& r) {
   const double rel = r.chi2_batch > 0 ? 100.0 * (r.chi2_incremental / r.chi2_batch - 1.0) : 0.0;
   std::printf("dataset            %s (%s order, solve every %d)\n", args.dataset.c_str(), r.order,
@@ -213,13 +220,15 @@ void printSummary(const RunArgs& args, const RunSummary& r) {
               r.landmarks, r.factors, r.steps);
   std::printf("chi2 initial       %.6g\n", r.chi2_initial);
   if (args.batch) {
-    std::printf("chi2 incremental   %.6f  (%+.4f%% vs batch)\n", r.chi2_incremental, rel);
-    std::printf("chi2 batch         %.6f  (%s, %d iterations, %.3f s: %s)\n", r.chi2_batch,
-                r.batch_converged ? "converged" : "NOT CONVERGED", r.batch_iterations,
-                r.batch_seconds, r.batch_stop_reason.c_str());
+    std::printf("chi2 incremental   %s  (%+.4f%% vs batch)\n", chi2Text(r.chi2_incremental).c_str(),
+                rel);
+    std::printf("chi2 batch         %s  (%s, %d iterations, %.3f s: %s)\n",
+                chi2Text(r.chi2_batch).c_str(), r.batch_converged ? "converged" : "NOT CONVERGED",
+                r.batch_iterations, r.batch_seconds, r.batch_stop_reason.c_str());
     std::printf("max position diff  %.3g m (incremental vs batch)\n", r.max_position_diff);
   } else {
-    std::printf("chi2 incremental   %.6f  (batch not run: --no-batch)\n", r.chi2_incremental);
+    std::printf("chi2 incremental   %s  (batch not run: --no-batch)\n",
+                chi2Text(r.chi2_incremental).c_str());
   }
   std::printf("incremental total  %.4f s, per step median %.4f ms, p99 %.4f ms, max %.4f ms\n",
               r.total_seconds, r.median, r.p99, r.worst);

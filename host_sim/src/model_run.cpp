@@ -121,9 +121,10 @@ StepKind classify(const ModelDataset& d, const ModelStep& step, std::int64_t pre
   return StepKind::Odometry;
 }
 
-// The step's rejection as a DatasetError at its first factor's line.
+// The step's rejection as a DatasetError at its first factor's line (`compact`: a step of
+// CompactPoseGraph, which checks more).
 [[noreturn]] void rejectStep(const ModelDataset& d, const ModelStep& step, std::size_t index,
-                             Status status, const std::string& note) {
+                             Status status, const std::string& note, bool compact = false) {
   constexpr std::size_t kMaxLines = 10;
   std::string reason =
       "step " + std::to_string(index) + " (pose " + std::to_string(step.new_pose.id);
@@ -142,7 +143,10 @@ StepKind classify(const ModelDataset& d, const ModelStep& step, std::int64_t pre
   if (status == Status::InvalidArgument) {
     reason +=
         " (an initial value composed from the estimate and a measurement lies beyond the "
-        "solver's coordinate range, |value| <= 1e9 m)";
+        "solver's coordinate range, |value| <= 1e9 m";
+    reason += compact ? "; or a measurement's standard deviation does (an information below "
+                        "about 1e-18), which the compact graph's covariances cannot carry)"
+                      : ")";
   }
   // Valid on their own, these factors met a system that rounding had made singular: the cause is
   // usually in an earlier step, which the solver accepted.
@@ -478,7 +482,7 @@ class CompactRunner {
         stats.dropped += c.dropped;
         stats.relocalized += c.relocalized ? 1 : 0;
       }
-      if (status != Status::Ok) rejectStep(d_, step, s, status, "");
+      if (status != Status::Ok) rejectStep(d_, step, s, status, "", true);
       record.result.factor_blocks = solver->factorBlocks();
       out.total_seconds += record.microseconds * 1e-6;
       out.reorders += record.result.reordered ? 1 : 0;
@@ -552,6 +556,7 @@ class CompactRunner {
         if (l == kNoIndex) continue;
         const PoseCorrection<Pose> c = correctionByObservedPoint<typename Model::PointObservation>(
             x, p, solver.template estimateAt<Landmark>(l), o.position, o.information);
+        if (!c.valid) continue;  // numerically singular: x stays, as the robot's place did
         x = x.retract(c.step);
         p = c.covariance;
       }

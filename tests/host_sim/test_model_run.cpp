@@ -402,3 +402,50 @@ TEST_CASE("progress: steps in order, and the last report's chi2 is that of the f
   REQUIRE(!reports.empty());
   CHECK(reports.back().steps_done == run.steps.size());
 }
+
+TEST_CASE("a compact run stays finite where an observation's information swamps its place's") {
+  // Past the capacity (10 nodes) an observation of a mapped landmark corrects the place, and each
+  // pose's trajectory estimate is corrected again on the final map (place_smoother.h), through
+  // the same Kalman update (correctionByObservedPoint). An information that dwarfs the place's
+  // past double precision makes that update singular: the pose keeps its estimate without it,
+  // not NaN. One below about 1e-18 is refused at its line.
+  sim::WorldOptions o = sim::defaultWorldOptions(sim::WorldKind::Grid2D);
+  o.steps = 40;
+  const ModelDataset world = sim::simulateWorld(sim::WorldKind::Grid2D, o).dataset;
+  sim::IncrementalOptions options;
+  options.solver = sim::defaultModelOptions(world);
+  options.max_poses = 10;
+  int pushed = 0;
+  for (std::size_t k = 0; k < world.factors.size() && pushed < 6; ++k) {
+    const ModelFactor& f = world.factors[k];
+    if (f.kind != FactorKind::PointXY2 || f.first.id < 10) continue;
+    for (const double extreme : {4e302, 1e307}) {
+      CAPTURE(k);
+      CAPTURE(extreme);
+      ModelDataset d = world;
+      d.factors[k].information(1, 1) = extreme;
+      const sim::ModelRun run = sim::runModelIncremental(d, options);
+      for (const auto& [key, value] : run.estimate) REQUIRE(value.allFinite());
+    }
+    ++pushed;
+  }
+  CHECK(pushed == 6);
+  for (std::size_t k = 0; k < world.factors.size(); ++k) {
+    const ModelFactor& f = world.factors[k];
+    if (f.kind != FactorKind::BetweenSE2 || f.first.id < 12 || f.second.id != f.first.id + 1) {
+      continue;
+    }
+    ModelDataset d = world;
+    d.factors[k].information *= 1e-23;  // standard deviations of 1.6e10 m and 3e9 rad
+    d.factors[k].line = 77;
+    try {
+      (void)sim::runModelIncremental(d, options);
+      FAIL("an odometry of standard deviations beyond 1e9 was accepted");
+    } catch (const sim::DatasetError& e) {
+      CHECK(e.line() == 77);
+      CHECK(std::string(e.what()).find("a measurement's standard deviation does") !=
+            std::string::npos);
+    }
+    break;
+  }
+}

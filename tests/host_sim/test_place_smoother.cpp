@@ -5,6 +5,7 @@
 // noise); with them, it must come closer to it than one forward-backward pass does.
 #include <doctest/doctest.h>
 
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -258,7 +259,44 @@ void checkClosuresBothWays() {
   CHECK(two_passes < 0.7 * one_pass);
 }
 
+// A covariance that overflowed (a measurement's information below the range of a double).
+template <class Pose>
+Matrix<Pose> overflowedCovariance() {
+  Matrix<Pose> m = Matrix<Pose>::Zero();
+  m.diagonal().setConstant(std::numeric_limits<double>::infinity());
+  return m;
+}
+
+// A loop closure whose covariance is not finite adds nothing: the trajectory is bit for bit that
+// of the log without it. An odometry whose covariance is not finite leaves every pose finite.
+template <class Pose>
+void checkNonFiniteCovariances() {
+  std::mt19937 rng(23);
+  const Chain<Pose> c = makeChain<Pose>(30, 0.05, rng, 6);
+  const auto noCorrection = [](std::size_t, Pose&, Matrix<Pose>&) {};
+  const std::vector<LoggedPose<Pose>> log = logOf(c);
+  const std::vector<Pose> without = smoothTrajectory(log, noCorrection);
+  std::vector<LoggedPose<Pose>> with_closure = log;
+  with_closure[20].closures.push_back({12, c.odometry[12], overflowedCovariance<Pose>()});
+  const std::vector<Pose> with = smoothTrajectory(with_closure, noCorrection);
+  REQUIRE(with.size() == without.size());
+  for (std::size_t k = 0; k < with.size(); ++k) {
+    CAPTURE(k);
+    CHECK(with[k].localCoordinates(without[k]).isZero(0.0));
+  }
+  std::vector<LoggedPose<Pose>> weak_odometry = log;
+  weak_odometry[8].odometry_covariance = overflowedCovariance<Pose>();
+  for (const Pose& x : smoothTrajectory(weak_odometry, noCorrection)) {
+    CHECK(Pose().localCoordinates(x).allFinite());
+  }
+}
+
 }  // namespace
+
+TEST_CASE("smoothTrajectory: a covariance that is not finite leaves the trajectory finite") {
+  checkNonFiniteCovariances<SE2>();
+  checkNonFiniteCovariances<SE3>();
+}
 
 TEST_CASE("smoothTrajectory lands on the batch solution of a chain's factors, in SE(2)") {
   checkSmootherMatchesBatch<SE2>();

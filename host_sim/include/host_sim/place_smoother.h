@@ -47,15 +47,20 @@ struct LoggedPose {
 namespace detail {
 
 // x, P updated by a measurement y of x itself with covariance r (the information-weighted mean in
-// the tangent at x).
+// the tangent at x). An update double precision cannot resolve (a covariance that overflowed, or
+// one swamping the other past its precision) leaves x and P as they were, as the robot's place
+// did (CompactPoseGraph).
 template <class Pose>
 void updateWithPose(Pose& x, typename LoggedPose<Pose>::Matrix& p, const Pose& y,
                     const typename LoggedPose<Pose>::Matrix& r) {
   using Matrix = typename LoggedPose<Pose>::Matrix;
   const Matrix gain = (p + r).transpose().ldlt().solve(p.transpose()).transpose();  // P (P + R)^-1
-  x = x.retract(gain * x.localCoordinates(y));
-  p = (Matrix::Identity() - gain) * p;
-  p = (0.5 * (p + p.transpose())).eval();
+  const auto step = (gain * x.localCoordinates(y)).eval();
+  Matrix updated = (Matrix::Identity() - gain) * p;
+  updated = (0.5 * (updated + updated.transpose())).eval();
+  if (!step.allFinite() || !updated.allFinite()) return;
+  x = x.retract(step);
+  p = updated;
 }
 
 template <class Pose>
@@ -121,8 +126,10 @@ Pass<Pose> filterAndSmooth(const std::vector<LoggedPose<Pose>>& log, const Pass<
     const Matrix predicted_covariance = j * p[k] * j.transpose() + log[k + 1].odometry_covariance;
     const Matrix gain_transposed =
         predicted_covariance.ldlt().solve(j * p[k].transpose());  // (P J^T P'^-1)^T
-    out.smoothed[k] =
-        x[k].retract(gain_transposed.transpose() * predicted.localCoordinates(out.smoothed[k + 1]));
+    const auto step =
+        (gain_transposed.transpose() * predicted.localCoordinates(out.smoothed[k + 1])).eval();
+    // (A gain that overflowed leaves the filtered estimate.)
+    out.smoothed[k] = step.allFinite() ? x[k].retract(step) : x[k];
   }
   return out;
 }
