@@ -46,15 +46,30 @@ struct LoggedPose {
 
 namespace detail {
 
+// Past this ratio of an LDLT's largest pivot to its smallest (a lower bound on the condition
+// number) a gain solved from it is mostly rounding, which the backward pass carries from pose to
+// pose, growing (a heading all but unknown: variances of 1e16 next to 1e-4). It trades an update
+// or a smoothing step skipped on such a covariance against a gain that would be noise.
+constexpr double kMaxGainCondition = 1e12;
+
+template <class Ldlt>
+bool wellConditioned(const Ldlt& ldlt) {
+  const auto pivots = ldlt.vectorD().cwiseAbs();
+  return ldlt.info() == Eigen::Success && pivots.minCoeff() > 0.0 &&
+         pivots.maxCoeff() <= kMaxGainCondition * pivots.minCoeff();
+}
+
 // x, P updated by a measurement y of x itself with covariance r (the information-weighted mean in
 // the tangent at x). An update double precision cannot resolve (a covariance that overflowed, or
-// one swamping the other past its precision) leaves x and P as they were, as the robot's place
-// did (CompactPoseGraph).
+// P + R too ill-conditioned for its gain) leaves x and P as they were, as the robot's place did
+// (CompactPoseGraph).
 template <class Pose>
 void updateWithPose(Pose& x, typename LoggedPose<Pose>::Matrix& p, const Pose& y,
                     const typename LoggedPose<Pose>::Matrix& r) {
   using Matrix = typename LoggedPose<Pose>::Matrix;
-  const Matrix gain = (p + r).transpose().ldlt().solve(p.transpose()).transpose();  // P (P + R)^-1
+  const auto sum = (p + r).transpose().ldlt();
+  if (!wellConditioned(sum)) return;
+  const Matrix gain = sum.solve(p.transpose()).transpose();  // P (P + R)^-1
   const auto step = (gain * x.localCoordinates(y)).eval();
   Matrix updated = (Matrix::Identity() - gain) * p;
   updated = (0.5 * (updated + updated.transpose())).eval();
@@ -124,12 +139,13 @@ Pass<Pose> filterAndSmooth(const std::vector<LoggedPose<Pose>>& log, const Pass<
     Matrix j;
     const Pose predicted = x[k].compose(log[k + 1].odometry, &j);
     const Matrix predicted_covariance = j * p[k] * j.transpose() + log[k + 1].odometry_covariance;
-    const Matrix gain_transposed =
-        predicted_covariance.ldlt().solve(j * p[k].transpose());  // (P J^T P'^-1)^T
+    const auto predicted_ldlt = predicted_covariance.ldlt();
+    const Matrix gain_transposed = predicted_ldlt.solve(j * p[k].transpose());  // (P J^T P'^-1)^T
     const auto step =
         (gain_transposed.transpose() * predicted.localCoordinates(out.smoothed[k + 1])).eval();
-    // (A gain that overflowed leaves the filtered estimate.)
-    out.smoothed[k] = step.allFinite() ? x[k].retract(step) : x[k];
+    // (A gain that overflowed, or that P' cannot resolve, leaves the filtered estimate.)
+    const bool smooth = wellConditioned(predicted_ldlt) && step.allFinite();
+    out.smoothed[k] = smooth ? x[k].retract(step) : x[k];
   }
   return out;
 }
