@@ -17,16 +17,22 @@ Eigen::Matrix<double, G::kDof, G::kDof> betweenErrorPerTangent() noexcept {
   return s;
 }
 
-// The inverse of a positive-definite matrix the size of G's tangent, a column at a time: a matrix
-// right-hand side takes Eigen's blocked solver, whose workspace may come from the heap.
+// The inverse of a positive-definite matrix the size of G's tangent from its factorization, a
+// column at a time: a matrix right-hand side takes Eigen's blocked solver, whose workspace may
+// come from the heap.
 template <class G>
 Eigen::Matrix<double, G::kDof, G::kDof> positiveDefiniteInverse(
-    const Eigen::Matrix<double, G::kDof, G::kDof>& spd) noexcept {
+    const Eigen::LLT<Eigen::Matrix<double, G::kDof, G::kDof>>& llt) noexcept {
   using Matrix = Eigen::Matrix<double, G::kDof, G::kDof>;
-  const Eigen::LLT<Matrix> llt(spd);
   Matrix inverse;
   for (int c = 0; c < G::kDof; ++c) inverse.col(c) = llt.solve(Matrix::Identity().col(c));
   return inverse;
+}
+
+template <class G>
+Eigen::Matrix<double, G::kDof, G::kDof> positiveDefiniteInverse(
+    const Eigen::Matrix<double, G::kDof, G::kDof>& spd) noexcept {
+  return positiveDefiniteInverse<G>(Eigen::LLT<Eigen::Matrix<double, G::kDof, G::kDof>>(spd));
 }
 
 // A between measurement's information (error coordinates) as a covariance in the tangent.

@@ -72,7 +72,7 @@ PoseCorrection<Pose> weightedCorrection(const Eigen::Matrix<double, Pose::kDof, 
   const Eigen::LLT<Matrix> llt(total);
   if (!total.allFinite() || llt.info() != Eigen::Success) return c;
   c.step = llt.solve(g);
-  c.covariance = positiveDefiniteInverse<Pose>(total);
+  c.covariance = positiveDefiniteInverse<Pose>(llt);  // the factorization above, not a second
   c.valid = c.step.allFinite() && c.covariance.allFinite() &&
             Eigen::LLT<Matrix>(c.covariance).info() == Eigen::Success;
   return c;
