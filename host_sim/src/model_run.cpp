@@ -413,9 +413,10 @@ class CompactRunner {
       if (s == 0) {
         for (const std::size_t k : step.factors) {
           const ModelFactor& f = d_.factors[k];
-          if (!observation(modelFactorInput<Model>(d_, f), f, step, observations)) {
-            throw DatasetError(d_.name, f.line, "--max-poses: the first pose has a between factor");
-          }
+          const ModelFactorInput<Model> in = modelFactorInput<Model>(d_, f);
+          if (observation(in, f, step, observations)) continue;
+          refuseUnsupported(in, f);
+          throw DatasetError(d_.name, f.line, "--max-poses: the first pose has a between factor");
         }
         const Pose first = toValue<Pose>(initialValue(d_, step, step.new_pose, {}));
         const auto t0 = Clock::now();
@@ -433,10 +434,7 @@ class CompactRunner {
           const ModelFactor& f = d_.factors[k];
           const ModelFactorInput<Model> in = modelFactorInput<Model>(d_, f);
           if (observation(in, f, step, observations)) continue;
-          if (in.kind != kFactorKind<Model, Between>) {
-            throw DatasetError(d_.name, f.line,
-                               "--max-poses takes between factors and point observations");
-          }
+          refuseUnsupported(in, f);
           // Every measurement as the new pose seen from the other one.
           Pose z = in.template measurementAs<Between>();
           Matrix info = in.template informationAs<Between>();
@@ -543,6 +541,15 @@ class CompactRunner {
       return true;
     }
     return false;
+  }
+
+  // Stops at a factor that is neither a between factor nor a point observation (a prior, a
+  // range-bearing observation): the compact graph has no place for it.
+  void refuseUnsupported(const ModelFactorInput<Model>& in, const ModelFactor& f) const {
+    if (in.kind != kFactorKind<Model, Between>) {
+      throw DatasetError(d_.name, f.line,
+                         "--max-poses takes between factors and point observations");
+    }
   }
 
   // x and its covariance p corrected by the observations of mapped landmarks (their final

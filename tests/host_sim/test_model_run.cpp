@@ -482,3 +482,48 @@ TEST_CASE("a compact run's trajectory stays near the truth past an odometry of u
   }
   CHECK(checked == 150);
 }
+
+TEST_CASE("a compact run refuses a factor it has no place for at its line, saying what it takes") {
+  // The compact graph keeps between factors and point observations. A range-bearing observation,
+  // from the first pose or from a later one, stops the run at its line with that message.
+  sim::WorldOptions o = sim::defaultWorldOptions(sim::WorldKind::Grid2D);
+  o.steps = 40;
+  o.landmark_measurement = sim::LandmarkMeasurement::RangeBearing;
+  ModelDataset world = sim::simulateWorld(sim::WorldKind::Grid2D, o).dataset;
+  for (std::size_t k = 0; k < world.factors.size(); ++k) world.factors[k].line = 100 + k;
+  sim::IncrementalOptions options;
+  options.solver = sim::defaultModelOptions(world);
+  options.max_poses = 10;
+  const auto refusal = [&](const ModelDataset& d) {
+    try {
+      (void)sim::runModelIncremental(d, options);
+    } catch (const sim::DatasetError& e) {
+      return std::make_pair(e.line(), std::string(e.what()));
+    }
+    return std::make_pair(std::size_t{0}, std::string("accepted"));
+  };
+  const auto firstOf = [](const ModelDataset& d, FactorKind kind, bool from_first_pose) {
+    for (const ModelFactor& f : d.factors) {
+      if (f.kind == kind && (f.first.id == 0) == from_first_pose) return f.line;
+    }
+    return std::size_t{0};
+  };
+  ModelDataset later = world;  // no observation from the first pose
+  later.factors.erase(std::remove_if(later.factors.begin(), later.factors.end(),
+                                     [](const ModelFactor& f) {
+                                       return f.kind == FactorKind::RangeBearing2 &&
+                                              f.first.id == 0;
+                                     }),
+                      later.factors.end());
+  const std::size_t from_first = firstOf(world, FactorKind::RangeBearing2, true);
+  const std::size_t from_later = firstOf(later, FactorKind::RangeBearing2, false);
+  REQUIRE(from_first > 0);
+  REQUIRE(from_later > 0);
+  for (const auto& [d, expected_line] :
+       {std::make_pair(&world, from_first), std::make_pair(&later, from_later)}) {
+    const auto [line, message] = refusal(*d);
+    CHECK(line == expected_line);
+    CHECK(message.find("--max-poses takes between factors and point observations") !=
+          std::string::npos);
+  }
+}
