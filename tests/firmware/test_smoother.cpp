@@ -5,6 +5,7 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -587,6 +588,65 @@ TEST_CASE("a graph below converge_below_variables converges within each update (
   checkSmallGraphConverges(stream2D(21, 60, 20), *smoother2, *one_step2);
 }
 
+// Per variable kind, each relinearization takes exactly the variables whose delta (the solve's
+// before it) is past their kind's relinearize_threshold_of_kind: the taken ones restart at zero,
+// the others keep their delta bit for bit. With the partial bar off every relinearizing update
+// takes its kind's threshold. Returns how many of each kind were relinearized.
+std::array<int, 2> relinearizedByKind(const Stream<Slam2D>& stream, double pose_threshold,
+                                      double landmark_threshold) {
+  lslam::SolverOptions o = lslam::defaultSolverOptions<Slam2D>();
+  o.relinearize_threshold_of_kind[0] = pose_threshold;
+  o.relinearize_threshold_of_kind[1] = landmark_threshold;
+  o.relinearize_partial_threshold = 0.0;
+  o.converge_below_variables = 0;  // one relinearization at most per update
+  o.solve_after_update = false;
+  auto solver = std::make_unique<Smoother2D>(o);
+  const double bar[2] = {pose_threshold, landmark_threshold};
+  const int size[2] = {3, 2};
+  std::array<int, 2> relinearized = {0, 0};
+  for (std::size_t k = 0; k < stream.steps.size(); ++k) {
+    CAPTURE(k);
+    std::vector<Vec3> before;
+    for (Index v = 0; v < solver->variables(); ++v) before.push_back(solver->deltaAt(v));
+    lslam::UpdateResult r;
+    REQUIRE(feed(*solver, stream.steps[k], &r) == Status::Ok);
+    Index expected = 0;
+    for (Index v = 0; v < static_cast<Index>(before.size()); ++v) {
+      CAPTURE(v);
+      const int kind = solver->kindAt(v);
+      const Eigen::VectorXd was = before[static_cast<std::size_t>(v)].head(size[kind]);
+      const Eigen::VectorXd now = solver->deltaAt(v).head(size[kind]);
+      if (r.variables_relinearized > 0 && was.cwiseAbs().maxCoeff() > bar[kind]) {
+        CHECK(now.isZero(0.0));
+        ++expected;
+        ++relinearized[static_cast<std::size_t>(kind)];
+      } else {
+        CHECK(std::equal(now.data(), now.data() + now.size(), was.data()));
+      }
+    }
+    CHECK(r.variables_relinearized == expected);
+    solver->solve(false);
+  }
+  return relinearized;
+}
+
+TEST_CASE("relinearize_threshold_of_kind: each kind is relinearized past its own threshold") {
+  const Stream<Slam2D> stream = stream2D(41, 150, 30);
+  const std::array<int, 2> poses_only = relinearizedByKind(stream, 0.01, 1e9);
+  CHECK(poses_only[0] > 0);
+  CHECK(poses_only[1] == 0);
+  const std::array<int, 2> landmarks_only = relinearizedByKind(stream, 1e9, 0.01);
+  CHECK(landmarks_only[0] == 0);
+  CHECK(landmarks_only[1] > 0);
+  // Both kinds, landmarks at a finer bar than poses: more of them are taken than at the poses'.
+  const std::array<int, 2> both = relinearizedByKind(stream, 0.01, 0.001);
+  MESSAGE("relinearized (poses, landmarks): " << poses_only[0] << ", " << poses_only[1] << "; "
+                                              << landmarks_only[0] << ", " << landmarks_only[1]
+                                              << "; " << both[0] << ", " << both[1]);
+  CHECK(both[0] > 0);
+  CHECK(both[1] > landmarks_only[1]);
+}
+
 // ---- Rejections ---------------------------------------------------------------------------------
 
 // Each rejected call changes no bit, and the valid step after it gives the bits a twin fed only
@@ -720,6 +780,29 @@ TEST_CASE("Slam3D: a rejected update of each kind changes nothing") {
             Mat6::Identity());
         *expected = Status::InvalidArgument;
         break;
+      case 6: {  // a 6x6 information with one negative eigenvalue (symmetric, finite)
+        Mat6 indefinite = Mat6::Identity();
+        indefinite(1, 4) = indefinite(4, 1) = 2.0;
+        bad.factors[0] = Fac::make<lslam::BetweenSE3Factor>(n - 1, n, SE3(), indefinite);
+        *expected = Status::InformationNotPositiveDefinite;
+        break;
+      }
+      case 7:  // a NaN quaternion coefficient in a measurement
+        bad.factors[0] = Fac::make<lslam::BetweenSE3Factor>(
+            n - 1, n,
+            SE3(lslam::SO3(Eigen::Quaterniond(1.0, std::nan(""), 0.0, 0.0)), Vec3::Zero()),
+            Mat6::Identity());
+        *expected = Status::NonFiniteInput;
+        break;
+      case 8: {  // an observation's 3x3 information that is singular
+        Mat3 singular = Mat3::Identity();
+        singular(2, 2) = 0.0;
+        bad.factors.push_back(
+            Fac::make<lslam::PointObservationSE3Factor>(n, 3001, Vec3(1, 0, 0), singular));
+        bad.variables.push_back(Var::make(3001, Point3(Vec3(1, 0, 0))));
+        *expected = Status::InformationNotPositiveDefinite;
+        break;
+      }
       default:  // more poses than the capacity
         for (int p = 0; p < Smoother3D::max_poses; ++p) {
           bad.variables.push_back(Var::make(5000 + p, SE3()));
@@ -731,7 +814,7 @@ TEST_CASE("Slam3D: a rejected update of each kind changes nothing") {
     }
     return bad;
   };
-  checkRejections(stream, *solver, *twin, 7, make);
+  checkRejections(stream, *solver, *twin, 10, make);
 }
 
 // ---- reorder() ----------------------------------------------------------------------------------
