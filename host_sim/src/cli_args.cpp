@@ -208,6 +208,7 @@ std::optional<std::string> parseRunArgs(const std::vector<std::string>& argv, Ru
       integer("--relinearize-defer-updates", so.relinearize_defer_updates, 0,
               "an integer in 0..2147483647"),
       real("--relinearize-threshold", so.relinearize_threshold),
+      real("--relinearize-landmark-threshold", so.relinearize_threshold_of_kind[1]),
       real("--relinearize-urgent", so.relinearize_urgent_threshold),
       real("--relinearize-partial", so.relinearize_partial_threshold),
       real("--backsub-tolerance", so.backsubstitution_tolerance),

@@ -60,6 +60,7 @@ TEST_CASE("run: an option without its value, at the end of the line or before an
                              "--report",
                              "--prepare-min-products",
                              "--relinearize-threshold",
+                             "--relinearize-landmark-threshold",
                              "--relinearize-urgent",
                              "--relinearize-partial",
                              "--backsub-tolerance",
@@ -130,6 +131,7 @@ TEST_CASE("run: a valid line sets every option, DATASET anywhere among them") {
                      "--relinearize-full-cost", "5", "--relinearize-skip", "6",
                      "--reorder-path", "7", "--reorder-burst", "8", "--prepare-min-products", "9",
                      "--relinearize-defer", "10", "--relinearize-defer-updates", "11",
+                     "--relinearize-landmark-threshold", "0.02",
                      "--reorder-top", "--no-row-updates", "--order-in-one-update"};
   // clang-format on
   REQUIRE(parseRunArgs(argv, args) == std::nullopt);
@@ -142,6 +144,8 @@ TEST_CASE("run: a valid line sets every option, DATASET anywhere among them") {
   CHECK(args.report == "report.json");
   const lslam::SolverOptions& so = args.solver;
   CHECK(so.relinearize_threshold == 0.5);
+  CHECK(so.relinearize_threshold_of_kind[0] == 0.0);
+  CHECK(so.relinearize_threshold_of_kind[1] == 0.02);
   CHECK(so.relinearize_urgent_threshold == 0.6);
   CHECK(so.relinearize_partial_threshold == 0.7);
   CHECK(so.backsubstitution_tolerance == 1e-4);
