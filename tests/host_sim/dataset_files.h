@@ -14,7 +14,7 @@ inline std::string datasetPath(const std::string& relative) {
 
 inline bool present(const std::string& path) {
   if (std::filesystem::exists(path)) return true;
-  MESSAGE("SKIP: " << path << " absent");
+  MESSAGE("SKIP: " << path << " not found");
   return false;
 }
 

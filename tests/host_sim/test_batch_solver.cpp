@@ -16,9 +16,13 @@
 #include <string>
 #include <vector>
 
+#include "dataset_files.h"
 #include "host_sim/batch_solver.h"
 #include "host_sim/chi2.h"
 #include "pose2d_matrices.h"
+
+using lslam::sim::test::datasetPath;
+using lslam::sim::test::present;
 
 using lslam::sim::BatchMethod;
 using lslam::sim::BatchOptions;
@@ -540,12 +544,10 @@ TEST_CASE("invalid input throws std::invalid_argument") {
 namespace {
 
 void checkDataset(const std::string& file, double reference, bool odometry_start) {
-  const std::string path = std::string(LSLAM_DATASETS_DIR) + "/2d/" + file;
+  const std::string path = datasetPath("2d/" + file);
+  if (!present(path)) return;
   Dataset2D d;
-  if (!loadG2o(path, &d)) {
-    MESSAGE("SKIP: " << path << " not found");
-    return;
-  }
+  REQUIRE(loadG2o(path, &d));
   const Estimate2D init = odometry_start ? odometryChained(d) : fileVertices(d);
   REQUIRE(init.size() == d.vertices.size());
   for (const BatchMethod method : {BatchMethod::LevenbergMarquardt, BatchMethod::GaussNewton}) {

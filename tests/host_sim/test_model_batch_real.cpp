@@ -16,13 +16,16 @@
 #include <algorithm>
 #include <chrono>
 #include <cstddef>
-#include <fstream>
 #include <sstream>
 #include <string>
 
+#include "dataset_files.h"
 #include "host_sim/model_batch_solver.h"
 #include "host_sim/model_chi2.h"
 #include "host_sim/model_dataset_io.h"
+
+using lslam::sim::test::datasetPath;
+using lslam::sim::test::present;
 
 namespace sim = lslam::sim;
 
@@ -73,11 +76,8 @@ sim::ModelEstimate onlineStart(const sim::ModelDataset& d, double* seconds) {
 // Solves `file` (relative to the datasets folder) from initialEstimate (or, with `online`, from
 // onlineStart); checks the MANIFEST value unless reference <= 0.
 void solveFile(const std::string& file, double reference, bool online = false) {
-  const std::string path = std::string(LSLAM_DATASETS_DIR) + "/" + file;
-  if (!std::ifstream(path)) {
-    MESSAGE("SKIP: " << path << " absent");
-    return;
-  }
+  const std::string path = datasetPath(file);
+  if (!present(path)) return;
   const sim::ModelDataset d = sim::readModelDataset(path);
   const sim::ModelEstimate init = sim::initialEstimate(d);
   std::ostringstream head;

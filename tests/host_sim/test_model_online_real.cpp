@@ -5,13 +5,16 @@
 // same pose fixed (both chi2 in the file's convention).
 #include <doctest/doctest.h>
 
-#include <fstream>
 #include <string>
 
+#include "dataset_files.h"
 #include "host_sim/model_batch_solver.h"
 #include "host_sim/model_chi2.h"
 #include "host_sim/model_dataset_io.h"
 #include "host_sim/model_run.h"
+
+using lslam::sim::test::datasetPath;
+using lslam::sim::test::present;
 
 namespace sim = lslam::sim;
 
@@ -20,11 +23,8 @@ namespace {
 constexpr double kWithin = 1e-3;  // 0.1 %
 
 void runOnline(const std::string& file) {
-  const std::string path = std::string(LSLAM_DATASETS_DIR) + "/" + file;
-  if (!std::ifstream(path)) {
-    MESSAGE("SKIP: " << path << " absent");
-    return;
-  }
+  const std::string path = datasetPath(file);
+  if (!present(path)) return;
   const sim::ModelDataset d = sim::readModelDataset(path);
   sim::IncrementalOptions run_options;
   run_options.solver = sim::defaultModelOptions(d);

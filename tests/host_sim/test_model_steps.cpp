@@ -7,17 +7,19 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <fstream>
-#include <iostream>
 #include <stdexcept>
 #include <string>
 #include <unordered_set>
 #include <utility>
 #include <vector>
 
+#include "dataset_files.h"
 #include "host_sim/model_chi2.h"
 #include "host_sim/model_dataset_io.h"
 #include "host_sim/model_steps.h"
+
+using lslam::sim::test::datasetPath;
+using lslam::sim::test::present;
 
 using lslam::sim::buildModelSteps;
 using lslam::sim::DatasetError;
@@ -472,11 +474,8 @@ TEST_CASE("model steps: real files") {
                         {"3d/sphere2500.g2o", 2500, 0},
                         {"3d/parking-garage.g2o", 0, 0}};  // poses: its pose vertices
   for (const Case& c : cases) {
-    const std::string path = std::string(LSLAM_DATASETS_DIR) + "/" + c.file;
-    if (!std::ifstream(path).good()) {
-      std::cout << "SKIP: " << path << " absent\n";
-      continue;
-    }
+    const std::string path = datasetPath(c.file);
+    if (!present(path)) continue;
     CAPTURE(path);
     const ModelDataset d = sim::readModelDataset(path);
     const auto steps = buildModelSteps(d);

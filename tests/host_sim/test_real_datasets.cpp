@@ -6,13 +6,16 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
-#include <fstream>
 #include <string>
 
+#include "dataset_files.h"
 #include "host_sim/model_batch_solver.h"
 #include "host_sim/model_chi2.h"
 #include "host_sim/model_dataset_io.h"
 #include "host_sim/model_run.h"
+
+using lslam::sim::test::datasetPath;
+using lslam::sim::test::present;
 
 using namespace lslam::sim;
 
@@ -25,11 +28,8 @@ struct Case {
 
 // The dataset at 2d/`file`, or nothing (with a SKIP message) when it is absent.
 bool readIfPresent(const std::string& file, ModelDataset* d) {
-  const std::string path = std::string(LSLAM_DATASETS_DIR) + "/2d/" + file;
-  if (!std::ifstream(path).good()) {
-    MESSAGE("SKIP: " << path << " not found");
-    return false;
-  }
+  const std::string path = datasetPath("2d/" + file);
+  if (!present(path)) return false;
   *d = readModelDataset(path);
   return true;
 }
