@@ -113,59 +113,84 @@ VariableKind poseKind(const ModelDataset& d, const ModelStep& step, const Variab
   return d.dimension == 3 ? VariableKind::SE3 : VariableKind::SE2;
 }
 
-// File order (model_steps.h, FILE ORDER): a pose graph's factors as a stream.
-std::vector<ModelStep> buildFileOrderSteps(const ModelDataset& d) {
-  std::vector<ModelStep> steps;
-  std::unordered_set<std::int64_t> known;
-  for (std::size_t i = 0; i < d.factors.size(); ++i) {
-    const ModelFactor& f = d.factors[i];
-    checkFactor(d, f);
-    if (!isBetween(f.kind) && !isPosePrior(f.kind)) {
-      throw std::invalid_argument("file order is for pose graphs; " + factorText(f) + " (line " +
-                                  std::to_string(f.line) + ") names a landmark");
+// File order (model_steps.h, FILE ORDER): the factors as a stream.
+class FileOrderSteps {
+ public:
+  explicit FileOrderSteps(const ModelDataset& d) : d_(d) {}
+
+  std::vector<ModelStep> build() {
+    for (std::size_t i = 0; i < d_.factors.size(); ++i) {
+      const ModelFactor& f = d_.factors[i];
+      checkFactor(d_, f);
+      if (isObservation(f.kind)) {
+        observation(f);
+      } else if (isLandmarkPrior(f.kind)) {
+        if (steps_.empty()) steps_.push_back(ModelStep{});  // landmarks before any pose
+        enterLandmark(f.first);
+      } else {
+        poseFactor(f);
+      }
+      steps_.back().factors.push_back(i);
     }
+    for (const ModelVertex& v : d_.vertices) {
+      if (steps_.empty() && v.key.role == VariableRole::Pose) {
+        introducePose(v.key.id);  // no factors: the first vertex is the only step
+      }
+      const bool known = v.key.role == VariableRole::Pose ? poses_.count(v.key.id) != 0
+                                                          : landmarks_.count(v.key) != 0;
+      if (!known) throw DatasetError(d_.name, v.line, keyText(v.key) + " (vertex) has no factor");
+    }
+    return std::move(steps_);
+  }
+
+ private:
+  // A prior or a between factor: one naming a pose not seen yet starts its step.
+  void poseFactor(const ModelFactor& f) {
     std::int64_t a = f.first.id;
     std::int64_t b = isBetween(f.kind) ? f.second.id : a;
-    if (steps.empty() && a != b) {  // the first between factor: its smaller pose is the anchor
-      steps.push_back(ModelStep{});
-      steps.back().new_pose = {VariableRole::Pose, std::min(a, b)};
-      known.insert(std::min(a, b));
-    }
-    if (known.count(a) != 0) std::swap(a, b);  // a: the unknown pose, if any
-    if (known.count(a) == 0 && known.count(b) == 0 && a != b) {
-      throw DatasetError(d.name, f.line,
+    if (poses_.empty() && a != b) introducePose(std::min(a, b));  // the anchor: no factors
+    if (poses_.count(a) != 0) std::swap(a, b);  // a: the unknown pose, if any
+    if (poses_.count(a) == 0 && poses_.count(b) == 0 && a != b) {
+      throw DatasetError(d_.name, f.line,
                          factorText(f) +
                              " introduces two new poses (file order introduces one "
                              "pose per step)");
     }
-    if (known.count(a) == 0) {
-      steps.push_back(ModelStep{});
-      steps.back().new_pose = {VariableRole::Pose, a};
-      known.insert(a);
-    }
-    steps.back().factors.push_back(i);
+    if (poses_.count(a) == 0) introducePose(a);
   }
-  for (const ModelVertex& v : d.vertices) {
-    if (steps.empty() && v.key.role == VariableRole::Pose) {
-      steps.push_back(ModelStep{});  // no factors: the first vertex is the only step
-      steps.back().new_pose = v.key;
-      known.insert(v.key.id);
+
+  // An observation joins the current step; its pose must be known, its landmark enters there.
+  void observation(const ModelFactor& f) {
+    if (poses_.empty()) introducePose(f.first.id);  // the anchor, seeing its first landmarks
+    if (poses_.count(f.first.id) == 0) {
+      throw DatasetError(d_.name, f.line,
+                         factorText(f) +
+                             " is seen from a pose no earlier factor introduced (file order "
+                             "introduces a pose by a between factor or a prior)");
     }
-    if (v.key.role == VariableRole::Landmark) {
-      throw std::invalid_argument("file order is for pose graphs; line " + std::to_string(v.line) +
-                                  " declares " + keyText(v.key));
-    }
-    if (known.count(v.key.id) == 0) {
-      throw DatasetError(d.name, v.line, keyText(v.key) + " (vertex) has no factor");
-    }
+    enterLandmark(f.second);
   }
-  return steps;
-}
+
+  void introducePose(std::int64_t id) {
+    if (steps_.empty() || steps_.back().new_pose.id >= 0) steps_.push_back(ModelStep{});
+    steps_.back().new_pose = {VariableRole::Pose, id};
+    poses_.insert(id);
+  }
+
+  void enterLandmark(const VariableKey& key) {
+    if (landmarks_.insert(key).second) steps_.back().new_landmarks.push_back(key);
+  }
+
+  const ModelDataset& d_;
+  std::vector<ModelStep> steps_;
+  std::unordered_set<std::int64_t> poses_;
+  KeySet landmarks_;
+};
 
 }  // namespace
 
 std::vector<ModelStep> buildModelSteps(const ModelDataset& d, StepOrder order) {
-  if (order == StepOrder::File) return buildFileOrderSteps(d);
+  if (order == StepOrder::File) return FileOrderSteps(d).build();
   std::vector<ModelStep> steps;
   if (d.vertices.empty() && d.factors.empty()) return steps;
 

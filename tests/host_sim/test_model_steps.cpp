@@ -439,7 +439,7 @@ TEST_CASE("model steps: file order of a pose graph") {
   const auto online = buildModelSteps(d);
   CHECK(initialValue(d, online[0], pose(0), {}) == Eigen::Vector3d::Zero());
 
-  // Errors: two new poses (its line), a pose vertex no factor names (the vertex line), landmarks.
+  // Errors: two new poses (its line), a pose vertex no factor names (the vertex line).
   ModelDataset two = d;
   two.factors.push_back(factor(FactorKind::BetweenSE2, pose(7), pose(8), rel(0, 1), 6));
   try {
@@ -459,8 +459,54 @@ TEST_CASE("model steps: file order of a pose graph") {
   } catch (const DatasetError& e) {
     CHECK(e.line() == 11);
   }
-  CHECK_THROWS_AS((void)buildModelSteps(makeWorld2().d, sim::StepOrder::File),
-                  std::invalid_argument);
+}
+
+TEST_CASE("model steps: file order with landmarks") {
+  // World2 as a stream: a landmark enters in the step of its first observation (or prior) in file
+  // order, from whichever known pose sees it; factors between known variables join the last step.
+  const World2 w = makeWorld2();
+  const auto steps = buildModelSteps(w.d, sim::StepOrder::File);
+  REQUIRE(steps.size() == 4);
+  for (int k = 0; k < 4; ++k) CHECK(steps[k].new_pose == pose(k));
+  CHECK(steps[0].factors.empty());
+  CHECK(steps[1].factors == std::vector<std::size_t>{0, 1});  // pose 0 sees landmark 1
+  CHECK(steps[1].new_landmarks == std::vector<VariableKey>{lm(1)});
+  CHECK(steps[2].factors == std::vector<std::size_t>{2, 3, 4, 5});
+  CHECK(steps[2].new_landmarks == (std::vector<VariableKey>{lm(7), lm(4)}));
+  CHECK(steps[3].factors == std::vector<std::size_t>{6, 7, 8, 9});
+  CHECK(steps[3].new_landmarks.empty());
+  // Noise-free, pose 0 at the origin (its prior comes last): the truth seen from pose 0.
+  const ModelEstimate est = chain(w.d, steps);
+  REQUIRE(est.size() == 7);
+  const Eigen::Matrix3d from0 = mat2(w.x[0]).inverse();
+  for (int k = 0; k < 4; ++k) {
+    CHECK(distance(VariableKind::SE2, est.at(pose(k)), params2(from0 * mat2(w.x[k]))) < 1e-12);
+  }
+  for (const auto& [key, l] :
+       {std::make_pair(lm(1), w.l1), std::make_pair(lm(4), w.l4), std::make_pair(lm(7), w.l7)}) {
+    const Eigen::Vector2d seen = (from0 * Eigen::Vector3d(l.x(), l.y(), 1.0)).head<2>();
+    CHECK(distance(VariableKind::Point2, est.at(key), seen) < 1e-12);
+  }
+
+  // Errors at their lines: an observation from a pose no earlier factor introduced, a landmark
+  // vertex no factor names.
+  ModelDataset unseen = w.d;
+  unseen.factors.push_back(factor(FactorKind::PointXY2, pose(8), lm(1), w.l1, 11));
+  ModelDataset lonely = w.d;
+  ModelVertex v;
+  v.key = lm(9);
+  v.kind = VariableKind::Point2;
+  v.value = w.l1;
+  v.line = 12;
+  lonely.vertices.push_back(v);
+  for (const auto& [d, line] : {std::make_pair(&unseen, 11), std::make_pair(&lonely, 12)}) {
+    try {
+      (void)buildModelSteps(*d, sim::StepOrder::File);
+      FAIL("no DatasetError");
+    } catch (const DatasetError& e) {
+      CHECK(e.line() == static_cast<std::size_t>(line));
+    }
+  }
 }
 
 TEST_CASE("model steps: real files") {

@@ -90,13 +90,13 @@ struct ModelRun {
   std::optional<CompactStats> compact;  // a compact run's (max_poses > 0)
 };
 
-// Runs `d` in options.order (file order: pose graphs only, else std::invalid_argument). The solver
-// anchors the first step's pose (step 0's) with a prior and has no FIX: a FIX of one other pose
-// only moves the gauge and is noted in gauge_note, a second fixed pose throws DatasetError at its
-// line. If the solver rejects a step, throws DatasetError at the line of the step's first factor,
-// naming the step, its pose, the lines of its factors and the solver's status. A dataset beyond
-// the solver's capacity is such a rejection (Status::CapacityExhausted; the message names the
-// capacity). Whatever buildModelSteps throws.
+// Runs `d` in options.order (model_steps.h). The solver anchors the first step's pose (step 0's)
+// with a prior and has no FIX: a FIX of one other pose only moves the gauge and is noted in
+// gauge_note, a second fixed pose throws DatasetError at its line. If the solver rejects a step,
+// throws DatasetError at the line of the step's first factor, naming the step, its pose, the lines
+// of its factors and the solver's status. A dataset beyond the solver's capacity is such a
+// rejection (Status::CapacityExhausted; the message names the capacity). Whatever buildModelSteps
+// throws.
 //
 // The solver is a SizedSmoother of modelCapacities(d, options.order, options.factor_blocks),
 // allocated and zeroed before the first step.

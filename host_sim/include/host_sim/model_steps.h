@@ -35,14 +35,16 @@
 // An empty dataset (no vertices, no factors) gives no steps. FIX keys are not used, nor are vertex
 // values but the first pose's.
 //
-// FILE ORDER (StepOrder::File, a pose graph's factors as a stream; landmarks:
-// std::invalid_argument). The first between factor's smaller pose is step 0's pose (no factors),
-// unless a prior comes first (then step 0 is that prior's pose, with it). Then factors are walked
-// in file order: one naming a pose not seen yet starts a step introducing that pose (the step is
-// that factor and the following ones until the next new pose); one whose poses are all known goes
-// into the current (last) step; one naming two unknown poses throws DatasetError at its line, as
-// does a pose vertex no factor names (at the vertex line). No factors: the first pose vertex is the
-// only step. intel.g2o, whose edges are listed out of time order, stops at its second edge.
+// FILE ORDER (StepOrder::File, the factors as a stream). The first between factor's smaller pose
+// is step 0's pose (no factors), unless a prior or an observation comes first (then step 0 is its
+// pose, with it). Then factors are walked in file order: a pose factor naming a pose not seen yet
+// starts a step introducing that pose (the step is that factor and the following ones until the
+// next new pose); any other factor goes into the current (last) step, and a landmark enters there
+// at its first observation or prior (landmark priors before any pose: a step without a pose). A
+// factor naming two unknown poses, or an observation from an unknown pose, throws DatasetError at
+// its line, as does a vertex no factor names (at the vertex line). No factors: the first pose
+// vertex is the only step. intel.g2o, whose edges are listed out of time order, stops at its
+// second edge.
 //
 // INITIAL VALUES (initialValue). From `current`, the estimate of the variables introduced by
 // earlier steps and, for a landmark, of the step's new pose (initialise the pose first):
