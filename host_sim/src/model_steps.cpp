@@ -113,6 +113,12 @@ VariableKind poseKind(const ModelDataset& d, const ModelStep& step, const Variab
   return d.dimension == 3 ? VariableKind::SE3 : VariableKind::SE2;
 }
 
+// A prior on a landmark that no factor observes and no vertex declares (most likely a wrong id).
+DatasetError unobservedLandmarkPrior(const ModelDataset& d, const ModelFactor& f) {
+  return DatasetError(d.name, f.line,
+                      factorText(f) + ": the landmark is never observed and no vertex declares it");
+}
+
 // File order (model_steps.h, FILE ORDER): the factors as a stream.
 class FileOrderSteps {
  public:
@@ -125,20 +131,28 @@ class FileOrderSteps {
       if (isObservation(f.kind)) {
         observation(f);
       } else if (isLandmarkPrior(f.kind)) {
-        if (steps_.empty()) steps_.push_back(ModelStep{});  // landmarks before any pose
+        if (steps_.empty()) steps_.push_back(ModelStep{});  // step 0, until its pose comes
         enterLandmark(f.first);
       } else {
         poseFactor(f);
       }
       steps_.back().factors.push_back(i);
     }
+    KeySet declared;
     for (const ModelVertex& v : d_.vertices) {
-      if (steps_.empty() && v.key.role == VariableRole::Pose) {
-        introducePose(v.key.id);  // no factors: the first vertex is the only step
+      if (poses_.empty() && v.key.role == VariableRole::Pose) {
+        introducePose(v.key.id);  // no pose factors: the first pose vertex is step 0's pose
       }
+      if (v.key.role == VariableRole::Landmark) declared.insert(v.key);
       const bool known = v.key.role == VariableRole::Pose ? poses_.count(v.key.id) != 0
                                                           : landmarks_.count(v.key) != 0;
       if (!known) throw DatasetError(d_.name, v.line, keyText(v.key) + " (vertex) has no factor");
+    }
+    for (const ModelFactor& f : d_.factors) {
+      if (isLandmarkPrior(f.kind) && observed_.count(f.first) == 0 &&
+          declared.count(f.first) == 0) {
+        throw unobservedLandmarkPrior(d_, f);
+      }
     }
     return std::move(steps_);
   }
@@ -148,7 +162,7 @@ class FileOrderSteps {
   void poseFactor(const ModelFactor& f) {
     std::int64_t a = f.first.id;
     std::int64_t b = isBetween(f.kind) ? f.second.id : a;
-    if (poses_.empty() && a != b) introducePose(std::min(a, b));  // the anchor: no factors
+    if (poses_.empty() && a != b) introducePose(std::min(a, b));  // the anchor
     if (poses_.count(a) != 0) std::swap(a, b);  // a: the unknown pose, if any
     if (poses_.count(a) == 0 && poses_.count(b) == 0 && a != b) {
       throw DatasetError(d_.name, f.line,
@@ -169,6 +183,7 @@ class FileOrderSteps {
                              "introduces a pose by a between factor or a prior)");
     }
     enterLandmark(f.second);
+    observed_.insert(f.second);
   }
 
   void introducePose(std::int64_t id) {
@@ -185,6 +200,7 @@ class FileOrderSteps {
   std::vector<ModelStep> steps_;
   std::unordered_set<std::int64_t> poses_;
   KeySet landmarks_;
+  KeySet observed_;
 };
 
 }  // namespace
@@ -258,10 +274,7 @@ std::vector<ModelStep> buildModelSteps(const ModelDataset& d, StepOrder order) {
     } else if (declared.count(f.first) != 0) {
       factor_step[i] = 0;
     } else {
-      throw DatasetError(d.name, f.line,
-                         factorText(f) +
-                             ": the landmark is never observed and no vertex "
-                             "declares it");
+      throw unobservedLandmarkPrior(d, f);
     }
   }
   for (const ModelVertex& v : d.vertices) {

@@ -488,18 +488,56 @@ TEST_CASE("model steps: file order with landmarks") {
     CHECK(distance(VariableKind::Point2, est.at(key), seen) < 1e-12);
   }
 
-  // Errors at their lines: an observation from a pose no earlier factor introduced, a landmark
-  // vertex no factor names.
-  ModelDataset unseen = w.d;
-  unseen.factors.push_back(factor(FactorKind::PointXY2, pose(8), lm(1), w.l1, 11));
-  ModelDataset lonely = w.d;
+  // A file that starts with an observation: step 0 is its pose, with it.
+  ModelDataset seen_first = w.d;
+  seen_first.factors.insert(seen_first.factors.begin(), w.d.factors[1]);  // pose 0 sees lm 1
+  const auto from_observation = buildModelSteps(seen_first, sim::StepOrder::File);
+  REQUIRE(from_observation.size() == 4);
+  CHECK(from_observation[0].new_pose == pose(0));
+  CHECK(from_observation[0].factors == std::vector<std::size_t>{0});
+  CHECK(from_observation[0].new_landmarks == std::vector<VariableKey>{lm(1)});
+  CHECK(from_observation[1].factors == std::vector<std::size_t>{1, 2});
+  CHECK(from_observation[1].new_landmarks.empty());
+  // A landmark prior before any pose: step 0 holds it, and the first pose takes that step.
+  ModelDataset prior_first = w.d;
+  prior_first.factors.insert(prior_first.factors.begin(), w.d.factors[5]);  // lm 7's prior
+  const auto from_prior = buildModelSteps(prior_first, sim::StepOrder::File);
+  REQUIRE(from_prior.size() == 4);
+  CHECK(from_prior[0].new_pose == pose(0));
+  CHECK(from_prior[0].factors == std::vector<std::size_t>{0});
+  CHECK(from_prior[0].new_landmarks == std::vector<VariableKey>{lm(7)});
+  CHECK(from_prior[2].new_landmarks == std::vector<VariableKey>{lm(4)});  // lm 7 is known
+  // A declared landmark with only a prior, and a pose vertex: one step, that pose's.
   ModelVertex v;
   v.key = lm(9);
   v.kind = VariableKind::Point2;
   v.value = w.l1;
   v.line = 12;
+  ModelVertex p0;
+  p0.key = pose(0);
+  p0.kind = VariableKind::SE2;
+  p0.value = w.x[0];
+  p0.line = 13;
+  ModelDataset declared;
+  declared.factors = {factor(FactorKind::PriorPoint2, lm(9), {}, w.l1, 1)};
+  declared.vertices = {v, p0};
+  const auto only_prior = buildModelSteps(declared, sim::StepOrder::File);
+  REQUIRE(only_prior.size() == 1);
+  CHECK(only_prior[0].new_pose == pose(0));
+  CHECK(only_prior[0].new_landmarks == std::vector<VariableKey>{lm(9)});
+
+  // Errors at their lines: an observation from a pose no earlier factor introduced, a landmark
+  // vertex no factor names, a prior on a landmark nothing observes and no vertex declares (as in
+  // online order).
+  ModelDataset unseen = w.d;
+  unseen.factors.push_back(factor(FactorKind::PointXY2, pose(8), lm(1), w.l1, 11));
+  ModelDataset lonely = w.d;
   lonely.vertices.push_back(v);
-  for (const auto& [d, line] : {std::make_pair(&unseen, 11), std::make_pair(&lonely, 12)}) {
+  ModelDataset stray_prior = w.d;
+  stray_prior.factors.push_back(factor(FactorKind::PriorPoint2, lm(5), {}, w.l1, 14));
+  CHECK(errorLine(stray_prior) == 14);
+  for (const auto& [d, line] : {std::make_pair(&unseen, 11), std::make_pair(&lonely, 12),
+                                std::make_pair(&stray_prior, 14)}) {
     try {
       (void)buildModelSteps(*d, sim::StepOrder::File);
       FAIL("no DatasetError");

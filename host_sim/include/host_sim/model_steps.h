@@ -35,16 +35,17 @@
 // An empty dataset (no vertices, no factors) gives no steps. FIX keys are not used, nor are vertex
 // values but the first pose's.
 //
-// FILE ORDER (StepOrder::File, the factors as a stream). The first between factor's smaller pose
-// is step 0's pose (no factors), unless a prior or an observation comes first (then step 0 is its
-// pose, with it). Then factors are walked in file order: a pose factor naming a pose not seen yet
-// starts a step introducing that pose (the step is that factor and the following ones until the
-// next new pose); any other factor goes into the current (last) step, and a landmark enters there
-// at its first observation or prior (landmark priors before any pose: a step without a pose). A
-// factor naming two unknown poses, or an observation from an unknown pose, throws DatasetError at
-// its line, as does a vertex no factor names (at the vertex line). No factors: the first pose
-// vertex is the only step. intel.g2o, whose edges are listed out of time order, stops at its
-// second edge.
+// FILE ORDER (StepOrder::File, the factors as a stream). Step 0's pose is the first between
+// factor's smaller pose (the step holds no pose factor), unless a prior or an observation comes
+// first (then it is that factor's pose, with it). Then factors are walked in file order: a between
+// factor or prior naming a pose not seen yet starts a step introducing that pose (the step is that
+// factor and the following ones until the next new pose); any other factor goes into the current
+// (last) step, and a landmark enters there at its first observation or prior (landmark priors
+// before the first pose join step 0, which that pose then takes; a file without poses has one step
+// without a pose). A factor naming two unknown poses, an observation from an unknown pose, or a
+// prior on a landmark nothing observes and no vertex declares throws DatasetError at its line, as
+// does a vertex no factor names (at the vertex line). No pose factors: the first pose vertex is
+// step 0's pose. intel.g2o, whose edges are listed out of time order, stops at its second edge.
 //
 // INITIAL VALUES (initialValue). From `current`, the estimate of the variables introduced by
 // earlier steps and, for a landmark, of the step's new pose (initialise the pose first):
