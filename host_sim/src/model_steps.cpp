@@ -138,32 +138,41 @@ class FileOrderSteps {
       }
       steps_.back().factors.push_back(i);
     }
+    checkPriorsOn(checkVertices());
+    return std::move(steps_);
+  }
+
+ private:
+  // Every vertex must be a variable a factor introduced (with no pose factor, the first pose
+  // vertex is step 0's pose). Returns the declared landmarks.
+  KeySet checkVertices() {
     KeySet declared;
     for (const ModelVertex& v : d_.vertices) {
-      if (poses_.empty() && v.key.role == VariableRole::Pose) {
-        introducePose(v.key.id);  // no pose factors: the first pose vertex is step 0's pose
-      }
+      if (poses_.empty() && v.key.role == VariableRole::Pose) introducePose(v.key.id);
       if (v.key.role == VariableRole::Landmark) declared.insert(v.key);
       const bool known = v.key.role == VariableRole::Pose ? poses_.count(v.key.id) != 0
                                                           : landmarks_.count(v.key) != 0;
       if (!known) throw DatasetError(d_.name, v.line, keyText(v.key) + " (vertex) has no factor");
     }
+    return declared;
+  }
+
+  // A landmark prior must be on a landmark that is observed or declared (as in online order).
+  void checkPriorsOn(const KeySet& declared) const {
     for (const ModelFactor& f : d_.factors) {
       if (isLandmarkPrior(f.kind) && observed_.count(f.first) == 0 &&
           declared.count(f.first) == 0) {
         throw unobservedLandmarkPrior(d_, f);
       }
     }
-    return std::move(steps_);
   }
 
- private:
   // A prior or a between factor: one naming a pose not seen yet starts its step.
   void poseFactor(const ModelFactor& f) {
     std::int64_t a = f.first.id;
     std::int64_t b = isBetween(f.kind) ? f.second.id : a;
     if (poses_.empty() && a != b) introducePose(std::min(a, b));  // the anchor
-    if (poses_.count(a) != 0) std::swap(a, b);  // a: the unknown pose, if any
+    if (poses_.count(a) != 0) std::swap(a, b);                    // a: the unknown pose, if any
     if (poses_.count(a) == 0 && poses_.count(b) == 0 && a != b) {
       throw DatasetError(d_.name, f.line,
                          factorText(f) +
