@@ -222,7 +222,11 @@ std::optional<std::string> parseRunArgs(const std::vector<std::string>& argv, Ru
       integer("--reorder-path", so.reorder_path_columns, 0, "an integer in 0..2147483647"),
       integer("--reorder-burst", so.reorder_burst_loop_closures, 0, "an integer in 0..2147483647"),
   };
-  return parseCommand(argv, options, "DATASET", args.dataset);
+  if (auto error = parseCommand(argv, options, "DATASET", args.dataset)) return error;
+  if (args.max_poses > 0 && args.order == StepOrder::File) {
+    return std::string("--max-poses runs in online order (not with --order file)");
+  }
+  return std::nullopt;
 }
 
 std::optional<std::string> parseGenerateArgs(const std::vector<std::string>& argv,

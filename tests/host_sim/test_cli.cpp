@@ -34,6 +34,8 @@ std::string generateError(const Argv& argv) {
 
 TEST_CASE("run: an unknown option is named as one, wherever it stands") {
   CHECK(runError({"--bogus", "data.g2o"}) == "unknown option \"--bogus\"");
+  CHECK(runError({"data.g2o", "--order", "file", "--max-poses", "10"}) ==
+        "--max-poses runs in online order (not with --order file)");
   CHECK(runError({"data.g2o", "--bogus"}) == "unknown option \"--bogus\"");
   CHECK(runError({"--bogus"}) == "unknown option \"--bogus\"");
   CHECK(runError({"data.g2o", "--json", "-j"}) == "unknown option \"-j\"");
