@@ -168,14 +168,14 @@ void CompactPoseGraph<Model>::closeLoop(const Closure& c, CompactStepResult& r) 
   const Index a = current_.node;
   const Index b = c.seen.node;
   // The current pose in b's frame, through the pose seen.
+  const Matrix measured = betweenTangentCovariance<Pose>(c.information);
   Matrix seen_covariance;
-  const Pose seen_offset =
-      composeWithCovariance<Pose>(c.seen.offset, c.seen.covariance, c.measurement,
-                                  betweenTangentCovariance<Pose>(c.information), &seen_covariance);
+  const Pose seen_offset = composeWithCovariance<Pose>(c.seen.offset, c.seen.covariance,
+                                                       c.measurement, measured, &seen_covariance);
   if (a != b) {
     const bool exact = current_.atNode() && c.seen.atNode();
     Pose z = c.measurement;  // b -> a
-    Matrix covariance = betweenTangentCovariance<Pose>(c.information);
+    Matrix covariance = measured;
     if (!exact) {
       Matrix j_inverse;
       const Pose to_node = current_.offset.inverse(&j_inverse);
